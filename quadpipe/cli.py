@@ -1,0 +1,204 @@
+"""The `quadpipe` command line: thin commands over library functions.
+
+Every command's help ends with an example. Errors in the user's input print as
+`file:line:col: error CODE: message` with a hint, and exit 1 without a traceback (add `--debug`
+to see one). Heavy modules (mujoco, numpy, pxr, open3d) are imported inside the commands so that
+`quadpipe --help` stays instant.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+app = typer.Typer(
+    name="quadpipe",
+    help="Animate quadrupeds by physics alone and bake the motion into clips.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+    context_settings={"help_option_names": ["-h", "--help"]},
+)
+
+_state = {"debug": False}
+
+EXIT_INPUT_ERROR = 1
+EXIT_INTERNAL_ERROR = 3
+
+
+class OutputFormat(str, Enum):
+    """Output formats of the listing commands."""
+
+    text = "text"
+    json = "json"
+
+
+def _version(value: bool) -> None:
+    if value:
+        from quadpipe import __version__
+
+        typer.echo(f"quadpipe {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    debug: Annotated[bool, typer.Option("--debug", help="Show Python tracebacks on errors.")] = False,
+    version: Annotated[
+        Optional[bool], typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")
+    ] = None,
+) -> None:
+    """Animate quadrupeds by physics alone and bake the motion into clips."""
+    _state["debug"] = debug
+
+
+SourceArg = Annotated[
+    str,
+    typer.Argument(help="An animal name (dog), an animal config (.yaml) or a skeleton file (.xml, .ma, .bvh)."),
+]
+LimitsOpt = Annotated[
+    Optional[Path], typer.Option("--limits", help="Joint-limit table for a bare skeleton (default: the thesis's).")
+]
+RolesOpt = Annotated[Optional[Path], typer.Option("--roles", help="Role map YAML for a skeleton's own bone names.")]
+MassOpt = Annotated[Optional[float], typer.Option("--mass", help="Body mass in kg for a bare skeleton.")]
+
+
+def _built(source: str, limits: Path | None, roles: Path | None, mass: float | None):
+    from quadpipe.animals import resolve_animal
+    from quadpipe.model import build_animal
+
+    animal = resolve_animal(source, limits=limits, role_map=roles, mass_kg=mass)
+    _print_warnings(animal.warnings)
+    return build_animal(animal)
+
+
+def _print_warnings(issues) -> None:
+    for issue in issues:
+        typer.echo(issue.format(), err=True)
+
+
+@app.command()
+def animals(
+    fmt: Annotated[OutputFormat, typer.Option("--format", help="Output format.")] = OutputFormat.text,
+) -> None:
+    """List the built-in animals: pelvis height, mass, bones, degrees of freedom.
+
+    Example: quadpipe animals --format json
+    """
+    from quadpipe import configs, report
+
+    rows = [report.animal_row(_built(name, None, None, None)) for name in configs.available("animals")]
+    if fmt is OutputFormat.json:
+        typer.echo(json.dumps(rows, indent=2))
+        return
+    _print_table(
+        "Animals",
+        ["name", "HP (cm)", "mass (kg)", "bones", "DOF", "radius (cm)", "step (s)"],
+        [[r["name"], r["hp_cm"], r["mass_kg"], r["bones"], r["dof"], r["radius_cm"], f"1/{round(1 / r['timestep_s'])}"] for r in rows],
+    )
+
+
+@app.command()
+def roles() -> None:
+    """List the 39 roles of the reference skeleton, with their parents.
+
+    Example: quadpipe roles
+    """
+    from quadpipe import roles as R
+
+    _print_table("Roles", ["role", "parent", "kind"], [[role, R.PARENT[role] or "-", R.kind_of(role)] for role in R.ROLES])
+
+
+@app.command()
+def convert(
+    source: SourceArg,
+    output: Annotated[Path, typer.Option("-o", "--output", help="MJCF file to write (.xml).")],
+    limits: LimitsOpt = None,
+    roles: RolesOpt = None,
+    mass: MassOpt = None,
+    floor: Annotated[bool, typer.Option("--floor/--no-floor", help="Include a floor and a light.")] = True,
+) -> None:
+    """Build an animal's physical model and write it as MJCF (opens in `python -m mujoco.viewer`).
+
+    Example: quadpipe convert dog -o dog.xml
+    """
+    from quadpipe.atomic import write_text
+    from quadpipe.world import Placement, build_world
+
+    built = _built(source, limits, roles, mass)
+    spec = build_world([Placement(built.animal.name, built)], floor=floor)
+    spec.compile()
+    write_text(output, spec.to_xml())
+    typer.echo(f"wrote {output} ({built.animal.name}: {len(built.animal.skeleton.bones)} bones, {built.animal.mass_kg:g} kg)")
+
+
+@app.command()
+def inspect(
+    source: SourceArg,
+    limits: LimitsOpt = None,
+    roles: RolesOpt = None,
+    mass: MassOpt = None,
+    fmt: Annotated[OutputFormat, typer.Option("--format", help="Output format.")] = OutputFormat.text,
+) -> None:
+    """Show an animal's bones: roles, file names, lengths, radii, masses and joint limits.
+
+    Example: quadpipe inspect horse   |   quadpipe inspect rig.bvh --roles rig_roles.yaml
+    """
+    from quadpipe import report
+
+    built = _built(source, limits, roles, mass)
+    summary, bones = report.animal_row(built), report.bone_rows(built)
+    if fmt is OutputFormat.json:
+        typer.echo(json.dumps({"animal": summary, "bones": bones}, indent=2))
+        return
+    typer.echo(
+        f"{summary['name']}: HP {summary['hp_cm']} cm, {summary['mass_kg']} kg, {summary['bones']} bones, "
+        f"{summary['dof']} DOF, radius {summary['radius_cm']} cm, step 1/{round(1 / summary['timestep_s'])} s"
+    )
+    _print_table(
+        "Bones",
+        ["role", "name", "parent", "length (cm)", "radius (cm)", "mass (kg)", "DOF", "twist min/max, swing1, swing2 (deg)"],
+        [
+            [b["role"], b["name"], b["parent"] or "-", b["length_cm"], b["radius_cm"], b["mass_kg"], b["dof"],
+             "-" if b["limits_deg"] is None else "{} .. {}, ±{}, ±{}".format(*b["limits_deg"])]
+            for b in bones
+        ],
+    )
+
+
+def _print_table(title: str, headers: list[str], rows: list[list]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=title)
+    for header in headers:
+        table.add_column(header)
+    for row in rows:
+        table.add_row(*(str(cell) for cell in row))
+    Console().print(table)
+
+
+def main() -> None:
+    """Entry point: run the app, turning input errors into clean messages and exit codes."""
+    from quadpipe.errors import QuadpipeError
+
+    try:
+        app()
+    except QuadpipeError as exc:
+        if _state["debug"]:
+            raise
+        typer.echo(exc.format(), err=True)
+        sys.exit(EXIT_INPUT_ERROR)
+    except Exception as exc:  # a bug in quadpipe, not in the user's input
+        if _state["debug"]:
+            raise
+        typer.echo(
+            f"internal error: {type(exc).__name__}: {exc}\n  hint: run again with --debug for the traceback, and report it",
+            err=True,
+        )
+        sys.exit(EXIT_INTERNAL_ERROR)

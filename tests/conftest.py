@@ -1,0 +1,37 @@
+"""Shared test helpers: built animals are cached per session (building is deterministic)."""
+
+from __future__ import annotations
+
+import functools
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+FIXTURES = REPO / "tests" / "fixtures"
+
+
+@functools.lru_cache(maxsize=None)
+def built_animal(name: str):
+    """The `BuiltAnimal` of a built-in animal (cached)."""
+    from quadpipe.animals import load_animal
+    from quadpipe.model import build_animal
+
+    return build_animal(load_animal(name))
+
+
+def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    """Run `python -m quadpipe ARGS` in a subprocess, as a user would."""
+    env = dict(os.environ, COLUMNS="200", NO_COLOR="1")
+    return subprocess.run(
+        [sys.executable, "-m", "quadpipe", *args], cwd=cwd or REPO, capture_output=True, text=True, env=env, timeout=300
+    )
+
+
+@pytest.fixture
+def cli():
+    """The `run_cli` helper as a fixture."""
+    return run_cli

@@ -1,0 +1,101 @@
+"""The command line as a user meets it: outputs, and golden messages for bad input.
+
+Each bad-input case is a fixture in tests/fixtures/bad_input/ with its expected stderr in
+`<case>.expected`, compared exactly: one clear message, exit code 1, no traceback.
+"""
+
+from __future__ import annotations
+
+import json
+
+import mujoco
+import pytest
+
+from quadpipe import configs
+from tests.conftest import FIXTURES, REPO
+
+BAD = FIXTURES / "bad_input"
+DOG_XML = "../../../configs/skeletons/dog.xml"
+
+BAD_INPUT_CASES = {
+    "unknown_role": ["inspect", "unknown_role.xml"],
+    "cycle": ["inspect", "cycle.xml"],
+    "zero_length": ["inspect", "zero_length.xml"],
+    "malformed": ["inspect", "malformed.xml"],
+    "missing_row": ["inspect", DOG_XML, "--limits", "missing_row.tsv"],
+    "bad_number": ["inspect", DOG_XML, "--limits", "bad_number.tsv"],
+    "bad_key": ["inspect", "bad_key.yaml"],
+    "unknown_animal": ["inspect", "doge"],
+    "unknown_format": ["convert", "skeleton.obj", "-o", "out.xml"],
+    "unwritable_output": ["convert", "dog", "-o", "no/such/folder/dog.xml"],
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_INPUT_CASES))
+def test_bad_input_gives_its_golden_message(case, cli):
+    result = cli(*BAD_INPUT_CASES[case], cwd=BAD)
+    expected = (BAD / f"{case}.expected").read_text()
+    assert result.returncode == 1
+    assert result.stderr == expected
+    assert "Traceback" not in result.stderr + result.stdout
+
+
+def test_debug_shows_the_traceback(cli):
+    result = cli("--debug", "inspect", "doge")
+    assert result.returncode != 0
+    assert "Traceback" in result.stderr and "QuadpipeError" in result.stderr
+
+
+def test_animals_lists_every_animal_with_its_size(cli):
+    result = cli("animals", "--format", "json")
+    assert result.returncode == 0, result.stderr
+    rows = {row["name"]: row for row in json.loads(result.stdout)}
+    assert set(rows) == set(configs.available("animals"))
+    assert rows["dog"]["hp_cm"] == 65.56 and rows["dog"]["bones"] == 39
+    assert rows["rat"]["timestep_s"] == pytest.approx(1 / 600)
+
+
+def test_inspect_reports_bones_masses_and_limits(cli):
+    result = cli("inspect", "dog", "--format", "json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    bones = {bone["role"]: bone for bone in report["bones"]}
+    assert len(bones) == 39
+    assert bones["lh_knee"]["limits_deg"] == [0.0, 85.0, 0.0, 0.0]
+    assert sum(bone["mass_kg"] for bone in bones.values()) == pytest.approx(report["animal"]["mass_kg"], rel=1e-3)
+
+
+def test_convert_writes_mjcf_that_mujoco_loads(cli, tmp_path):
+    target = tmp_path / "dog.xml"
+    result = cli("convert", "dog", "-o", str(target))
+    assert result.returncode == 0, result.stderr
+    model = mujoco.MjModel.from_xml_path(str(target))
+    assert model.body("dog/pelvis").id > 0 and model.geom("floor").id >= 0
+    assert model.opt.timestep == pytest.approx(1 / 120) and model.opt.iterations == 32
+
+
+def test_convert_from_a_bare_skeleton_file(cli, tmp_path):
+    target = tmp_path / "model.xml"
+    result = cli("convert", str(REPO / "configs" / "skeletons" / "horse.xml"), "--mass", "500", "-o", str(target))
+    assert result.returncode == 0, result.stderr
+    model = mujoco.MjModel.from_xml_path(str(target))
+    assert model.body_subtreemass[0] == pytest.approx(500)
+
+
+def test_a_failed_convert_leaves_no_file(cli, tmp_path):
+    target = tmp_path / "dog.xml"
+    result = cli("convert", "doge", "-o", str(target))
+    assert result.returncode == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_help_of_every_command_has_an_example(cli):
+    from quadpipe.cli import app
+
+    import typer.main
+
+    group = typer.main.get_group(app)
+    for name in group.commands:
+        result = cli(name, "--help")
+        assert result.returncode == 0
+        assert "Example:" in result.stdout, name
