@@ -64,27 +64,27 @@ class JointLimits:
         """Limits for one role; a missing row is a `QuadpipeError`."""
         key = self.row_for(role)
         if key is None:
-            kind = R.kind_of(role)
-            group = re.sub(r"\d+$", "", kind)
-            raise QuadpipeError.single(
-                "missing-limits",
-                f"the limits table has no row for role {role!r}",
-                file=self.source,
-                hint=f"add a row {kind!r} (or a group row {group + 's'!r}) with twist min/max and swings",
-            )
+            raise self._missing([role])
         return self.rows[key]
 
     def resolve(self, roles: Iterable[str] = JOINTED_ROLES) -> dict[str, JointLimit]:
-        """Limits for every given role, reporting all missing rows at once."""
-        resolved, issues = {}, []
-        for role in roles:
-            try:
-                resolved[role] = self.for_role(role)
-            except QuadpipeError as exc:
-                issues.extend(exc.issues)
-        if issues:
-            raise QuadpipeError(issues)
-        return resolved
+        """Limits for every given role, reporting all missing rows at once (one per kind)."""
+        roles = list(roles)
+        missing = [role for role in roles if self.row_for(role) is None]
+        if missing:
+            kinds = dict.fromkeys(R.kind_of(role) for role in missing)
+            raise QuadpipeError([self._missing([r for r in missing if R.kind_of(r) == k]).issues[0] for k in kinds])
+        return {role: self.rows[self.row_for(role)] for role in roles}
+
+    def _missing(self, roles: list[str]) -> QuadpipeError:
+        kind = R.kind_of(roles[0])
+        group = re.sub(r"\d+$", "", kind)
+        return QuadpipeError.single(
+            "missing-limits",
+            f"the limits table has no row for {kind!r} (role{'s' if len(roles) > 1 else ''} {', '.join(roles)})",
+            file=self.source,
+            hint=f"add a row {kind!r} (or a group row {group + 's'!r}) with twist min/max and swings",
+        )
 
 
 def from_degrees(twist_min: float, twist_max: float, swing1: float, swing2: float, where: Location | None = None) -> JointLimit:

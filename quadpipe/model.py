@@ -101,6 +101,7 @@ def build_animal(animal: Animal) -> BuiltAnimal:
 
     spec = mujoco.MjSpec()
     spec.modelname = animal.name
+    spec.compiler.degree = False
     spec.option.timestep = sizing.timestep(hp)
     spec.option.iterations = sizing.SOLVER_ITERATIONS
     classes = _add_defaults(spec, animal, tau)

@@ -42,6 +42,7 @@ def build_world(placements: Sequence[Placement], *, floor: bool = True) -> mujoc
     """
     spec = mujoco.MjSpec()
     spec.modelname = "+".join(p.name for p in placements) or "world"
+    spec.compiler.degree = False
     spec.option.timestep = min((p.built.timestep for p in placements), default=sizing.FRAME_STEP_S)
     spec.option.iterations = sizing.SOLVER_ITERATIONS
     largest = max((p.built.animal.pelvis_height for p in placements), default=1.0)

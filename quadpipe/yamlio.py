@@ -7,6 +7,7 @@ are errors (PyYAML silently keeps the last one).
 
 from __future__ import annotations
 
+import difflib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, TypeVar
@@ -126,7 +127,20 @@ def validate_document(model: type[BaseModelT], doc: YamlDocument) -> BaseModelT:
     try:
         return model.model_validate(doc.data)
     except pydantic.ValidationError as exc:
-        raise QuadpipeError([_issue_from_pydantic(err, model, doc) for err in exc.errors()]) from None
+        errors = _without_missing_explained_by_typos(exc.errors())
+        raise QuadpipeError([_issue_from_pydantic(err, model, doc) for err in errors]) from None
+
+
+def _without_missing_explained_by_typos(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Drop "missing key X" when a misspelt key beside it is close to X: one typo, one message."""
+    unknown = {tuple(e["loc"]) for e in errors if e["type"] == "extra_forbidden"}
+
+    def explained(err: dict[str, Any]) -> bool:
+        loc = tuple(err["loc"])
+        siblings = [str(u[-1]) for u in unknown if u[:-1] == loc[:-1]]
+        return err["type"] == "missing" and bool(difflib.get_close_matches(str(loc[-1]), siblings, n=1, cutoff=0.6))
+
+    return [e for e in errors if not explained(e)]
 
 
 def _fields_at(model: type[pydantic.BaseModel], loc: tuple[Any, ...]) -> list[str]:

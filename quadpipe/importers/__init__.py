@@ -7,6 +7,7 @@ format, write a module with a reader returning a `RawSkeleton` and add it to `_M
 
 from __future__ import annotations
 
+from dataclasses import replace
 from importlib import import_module
 from pathlib import Path
 from typing import Callable
@@ -57,17 +58,26 @@ def read_raw_skeleton(path: str | Path) -> RawSkeleton:
 
 
 def load_skeleton(path: str | Path, role_map: str | Path | None = None) -> Skeleton:
-    """Read a skeleton file and assemble it, with roles from the file, a role map, or a guess.
+    """Read a skeleton file and assemble it, with roles from a role map, the file, or a guess.
 
     Args:
         path: the skeleton file; its suffix picks the reader.
-        role_map: a YAML role map (`name pattern -> role`); when None, joints without a role
-            in the file get a guessed one.
+        role_map: a YAML role map (units, up axis, `name pattern -> role`); when None,
+            roles come from the file, and joints without one get a guessed role.
+
+    Returns:
+        The skeleton; its warnings include the role map's unused patterns and guessed
+        chains that skipped joints.
+
+    Raises:
+        QuadpipeError: a bad file or role map, or roles that could not be placed (the
+            message says what was guessed).
     """
     from quadpipe.rolemap import resolve_roles
 
-    raw = read_raw_skeleton(path)
-    return assemble(raw, resolve_roles(raw, role_map))
+    resolution = resolve_roles(read_raw_skeleton(path), role_map)
+    skeleton = assemble(resolution.raw, resolution.roles)
+    return replace(skeleton, warnings=resolution.warnings + skeleton.warnings)
 
 
 def load_limits(path: str | Path) -> JointLimits:

@@ -1,0 +1,241 @@
+"""BVH (Biovision hierarchy) skeletons: the HIERARCHY section; MOTION is ignored.
+
+    HIERARCHY
+    ROOT Bip01 Pelvis
+    {
+        OFFSET 0 65.56 0
+        CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+        JOINT Bip01 L Thigh
+        {
+            OFFSET 7.5 -3.56 -3
+            CHANNELS 3 Zrotation Xrotation Yrotation
+            ...
+                End Site
+                {
+                    OFFSET 0 -1.2 2.5
+                }
+        }
+    }
+    MOTION
+    ...
+
+A joint's rest position is the sum of the OFFSETs from the root down to it; an End Site
+gives its joint's `end`. Joint names run to the end of their line (`Bip01 L Thigh`). BVH
+declares neither units nor axes: quadpipe reads centimetres, y up (a role map can say
+otherwise), and joints carry no main axis.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NoReturn
+
+from quadpipe.errors import QuadpipeError
+from quadpipe.skeleton import JointRecord, RawSkeleton
+
+CHANNEL_NAMES = {f"{axis}{kind}" for axis in "xyz" for kind in ("position", "rotation")}
+"""Valid CHANNELS entries, lower-cased."""
+
+_WORD = re.compile(r"\S+")
+
+Vector = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class _Token:
+    text: str
+    line: int
+    column: int
+
+
+@dataclass
+class _Joint:
+    """A joint being read: filled in as its body is parsed."""
+
+    name: str
+    parent: str | None
+    line: int
+    origin: Vector
+    position: Vector | None = None
+    end: Vector | None = None
+    channels_seen: bool = False
+
+
+class _Parser:
+    """Recursive-descent reader of the HIERARCHY section."""
+
+    def __init__(self, source: str, text: str) -> None:
+        self.source = source
+        self.lines = text.splitlines()
+        self.tokens: list[_Token] = []
+        for number, line in enumerate(self.lines, start=1):
+            self.tokens.extend(_Token(m.group(), number, m.start() + 1) for m in _WORD.finditer(line))
+        self.index = 0
+        self.joints: list[_Joint] = []
+
+    def fail(self, token: _Token | None, code: str, message: str, hint: str | None = None) -> NoReturn:
+        line = token.line if token else max(len(self.lines), 1)
+        raise QuadpipeError.single(code, message, file=self.source, line=line,
+                                   column=token.column if token else None, hint=hint)
+
+    def peek(self) -> _Token | None:
+        return self.tokens[self.index] if self.index < len(self.tokens) else None
+
+    def take(self, inside: _Joint | None) -> _Token:
+        """The next token; the end of the file inside a joint means the file was cut short."""
+        token = self.peek()
+        if token is None:
+            where = f"inside joint {inside.name!r} (opened at line {inside.line})" if inside else "inside the hierarchy"
+            self.fail(None, "bvh-truncated", f"the file ends {where}", "the file was cut short, or a '}' is missing")
+        self.index += 1
+        return token
+
+    def expect_open(self, inside: _Joint) -> None:
+        token = self.take(inside)
+        if token.text != "{":
+            self.fail(token, "bvh-syntax", f"expected '{{' after {inside.name!r}, found {token.text!r}",
+                      "each ROOT, JOINT and End Site line is followed by a '{' line")
+
+    def rest_of_line(self, keyword: _Token) -> str:
+        """The text after `keyword` on its line (a joint name); a trailing `{` is left as a token."""
+        words = []
+        while (token := self.peek()) is not None and token.line == keyword.line and token.text != "{":
+            words.append(token)
+            self.index += 1
+        if not words:
+            self.fail(keyword, "bvh-syntax", f"{keyword.text} has no name", f"write the name after {keyword.text}")
+        line = self.lines[keyword.line - 1]
+        return line[words[0].column - 1 : words[-1].column - 1 + len(words[-1].text)]
+
+    def number(self, token: _Token, what: str) -> float:
+        try:
+            value = float(token.text)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value):
+            self.fail(token, "bvh-bad-number", f"{token.text!r} is not a number ({what})", "write a plain decimal number")
+        return value
+
+    def offset(self, inside: _Joint, what: str) -> Vector:
+        return tuple(self.number(self.take(inside), what) for _ in range(3))  # type: ignore[return-value]
+
+    def parse(self) -> list[_Joint]:
+        first = self.peek()
+        if first is None or first.text.upper() != "HIERARCHY":
+            self.fail(first, "bvh-missing-hierarchy", "a BVH file starts with the word HIERARCHY",
+                      "is this a BVH file? the skeleton must come first, before MOTION")
+        self.index += 1
+        while (token := self.peek()) is not None:
+            keyword = token.text.upper()
+            if keyword == "MOTION":
+                break
+            self.index += 1
+            if keyword == "ROOT":
+                self.joint(token, None)
+            elif token.text == "}":
+                self.fail(token, "bvh-unbalanced-braces", "this '}' closes nothing", "remove it, or find the '{' it should close")
+            else:
+                self.fail(token, "bvh-syntax", f"expected ROOT or MOTION, found {token.text!r}")
+        if not self.joints:
+            self.fail(first, "bvh-syntax", "the HIERARCHY has no ROOT joint", "add ROOT <name> { OFFSET x y z ... }")
+        return self.joints
+
+    def joint(self, keyword: _Token, parent: _Joint | None) -> None:
+        origin = parent.position if parent and parent.position else (0.0, 0.0, 0.0)
+        joint = _Joint(self.rest_of_line(keyword), parent.name if parent else None, keyword.line, origin)
+        self.joints.append(joint)
+        self.expect_open(joint)
+        while True:
+            token = self.take(joint)
+            keyword_text = token.text.upper()
+            if token.text == "}":
+                break
+            if keyword_text == "OFFSET":
+                offset = self.offset(joint, f"OFFSET of {joint.name!r}")
+                joint.position = tuple(o + d for o, d in zip(origin, offset))  # type: ignore[assignment]
+            elif keyword_text == "CHANNELS":
+                self.channels(token, joint)
+            elif keyword_text == "JOINT":
+                self.require_offset(token, joint)
+                self.joint(token, joint)
+            elif keyword_text == "END":
+                self.end_site(token, joint)
+            elif keyword_text in ("ROOT", "MOTION", "HIERARCHY"):
+                self.fail(token, "bvh-unbalanced-braces",
+                          f"joint {joint.name!r} (opened at line {joint.line}) is not closed before {token.text}",
+                          "add the missing '}'")
+            else:
+                self.fail(token, "bvh-syntax", f"unexpected {token.text!r} in joint {joint.name!r}",
+                          "a joint holds OFFSET, CHANNELS, JOINT and End Site")
+        self.require_offset(token, joint)
+
+    def require_offset(self, token: _Token, joint: _Joint) -> None:
+        if joint.position is None:
+            self.fail(token, "bvh-syntax", f"joint {joint.name!r} has no OFFSET before this point",
+                      "write OFFSET x y z right after the joint's '{'")
+
+    def channels(self, keyword: _Token, joint: _Joint) -> None:
+        if joint.channels_seen:
+            self.fail(keyword, "bvh-bad-channels", f"joint {joint.name!r} has two CHANNELS lines")
+        joint.channels_seen = True
+        count_token = self.take(joint)
+        if not count_token.text.isdigit():
+            self.fail(count_token, "bvh-bad-channels", f"CHANNELS needs a count, found {count_token.text!r}",
+                      "write CHANNELS 3 Zrotation Xrotation Yrotation")
+        names = []
+        while (token := self.peek()) is not None and token.line == keyword.line:
+            names.append(token)
+            self.index += 1
+        if len(names) != int(count_token.text):
+            self.fail(count_token, "bvh-bad-channels",
+                      f"CHANNELS says {count_token.text} but lists {len(names)} channel(s)",
+                      "the count must match the channel names on the same line")
+        for name in names:
+            if name.text.lower() not in CHANNEL_NAMES:
+                self.fail(name, "bvh-bad-channels", f"{name.text!r} is not a channel",
+                          "channels are Xposition, Yposition, Zposition, Xrotation, Yrotation, Zrotation")
+
+    def end_site(self, keyword: _Token, joint: _Joint) -> None:
+        self.require_offset(keyword, joint)
+        site = self.take(joint)
+        if site.text.upper() != "SITE" or site.line != keyword.line:
+            self.fail(keyword, "bvh-syntax", "expected 'End Site'")
+        if joint.end is not None:
+            self.fail(keyword, "bvh-syntax", f"joint {joint.name!r} has a second End Site", "keep one End Site per joint")
+        self.expect_open(joint)
+        offset_token = self.take(joint)
+        if offset_token.text.upper() != "OFFSET":
+            self.fail(offset_token, "bvh-syntax", f"expected OFFSET in the End Site of {joint.name!r}, found {offset_token.text!r}")
+        offset = self.offset(joint, f"End Site of {joint.name!r}")
+        joint.end = tuple(p + d for p, d in zip(joint.position, offset))  # type: ignore[arg-type, assignment]
+        closing = self.take(joint)
+        if closing.text != "}":
+            self.fail(closing, "bvh-unbalanced-braces",
+                      f"the End Site of {joint.name!r} is not closed: found {closing.text!r} where '}}' belongs",
+                      "an End Site holds only its OFFSET")
+
+
+def read_skeleton(path: str | Path) -> RawSkeleton:
+    """Read the joint hierarchy of a BVH file (centimetres, y up, no axes).
+
+    Raises:
+        QuadpipeError: no HIERARCHY, a cut-off file, unbalanced braces, a bad number, a
+            CHANNELS line that does not add up, or anything else out of place.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise QuadpipeError.single("file-unreadable", f"cannot read {path}: {exc.strerror}", file=str(path)) from None
+    joints = _Parser(str(path), text).parse()
+    records = tuple(
+        JointRecord(name=j.name, parent=j.parent, position=j.position, end=j.end, line=j.line)  # type: ignore[arg-type]
+        for j in joints
+    )
+    return RawSkeleton(name=path.name.split(".")[0], source=str(path), joints=records, units="cm", up="y")
+
+
+SKELETON_READERS = {".bvh": read_skeleton}

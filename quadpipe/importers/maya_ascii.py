@@ -1,0 +1,532 @@
+"""Maya ASCII (`.ma`) skeletons: joints and the group transforms above them.
+
+A `.ma` file is a MEL script. This reader runs the few commands that build a skeleton and
+skips the rest:
+
+    currentUnit -l centimeter -a degree -t film;
+    createNode transform -n "dog_grp";
+        setAttr ".t" -type "double3" 25 0 -40 ;
+    createNode joint -n "Pelvis" -p "dog_grp";
+        setAttr ".t" -type "double3" 0 65.56 0 ;
+        setAttr ".jo" -type "double3" 0 -90 0 ;
+    connectAttr "Pelvis.s" "Spine1.is";
+
+World positions follow Maya's own matrices (row vectors, `p' = p * M`; Maya node docs):
+
+- joint:     [S] [RA] [R] [JO] [IS] [T]
+- transform: [SP]^-1 [S] [SH] [SP] [ST] [RP]^-1 [RA] [R] [RP] [RT] [T]
+
+with `R` in the node's rotate order, `RA` (rotate axis) and `JO` (joint orient) in xyz order,
+and `IS` the inverse of the scale connected to the joint's `.is` (segment scale compensate).
+A joint's main axis is its world-space local Z axis (Maya's bend axis for joints oriented
+"xyz, y up"). Joints without children come back as ordinary joints: `assemble` takes a leaf
+bone's end from its single child.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterator, NoReturn
+
+import numpy as np
+
+from quadpipe.errors import QuadpipeError, did_you_mean
+from quadpipe.skeleton import JointRecord, RawSkeleton
+
+MAYA_HEADER = "//Maya"
+"""Maya refuses `.ma` files that do not start with these six characters."""
+
+LINEAR_UNITS: dict[str, tuple[str, float]] = {
+    "mm": ("mm", 1.0), "millimeter": ("mm", 1.0),
+    "cm": ("cm", 1.0), "centimeter": ("cm", 1.0),
+    "m": ("m", 1.0), "meter": ("m", 1.0),
+    "in": ("in", 1.0), "inch": ("in", 1.0),
+    "ft": ("ft", 1.0), "foot": ("ft", 1.0),
+    "yd": ("m", 0.9144), "yard": ("m", 0.9144),
+    "km": ("m", 1000.0), "kilometer": ("m", 1000.0),
+    "mi": ("m", 1609.344), "mile": ("m", 1609.344),
+}
+"""Maya's linear unit names -> (quadpipe unit, factor that turns file values into it)."""
+
+ANGULAR_UNITS: dict[str, float] = {"deg": math.pi / 180.0, "degree": math.pi / 180.0, "rad": 1.0, "radian": 1.0}
+"""Maya's angular unit names -> radians per unit."""
+
+ROTATE_ORDERS = ("xyz", "yzx", "zxy", "xzy", "yxz", "zyx")
+"""Values of the `rotateOrder` enum, in Maya's numbering."""
+
+TRACKED_TYPES = ("joint", "transform")
+"""Node types that make up the skeleton's DAG; every other node is skipped."""
+
+_VECTORS = {
+    "t": "translate", "r": "rotate", "s": "scale", "jo": "jointOrient", "ra": "rotateAxis",
+    "rp": "rotatePivot", "sp": "scalePivot", "rpt": "rotatePivotTranslate", "spt": "scalePivotTranslate",
+}
+_SHEAR_PARTS = {"shxy": "shearXY", "shxz": "shearXZ", "shyz": "shearYZ"}
+ANGULAR_ATTRIBUTES = {"r", "jo", "ra"}
+"""Vector attributes holding angles (in the file's angular unit)."""
+
+ONE_VECTORS = {"s"}
+"""Vector attributes whose default is (1, 1, 1) rather than zero."""
+
+TRUE_WORDS = {"yes", "true", "on", "1"}
+FALSE_WORDS = {"no", "false", "off", "0"}
+
+
+def _attribute_table() -> dict[str, tuple[str, int | None]]:
+    """Short and long attribute names -> (vector attribute, component index or None)."""
+    table: dict[str, tuple[str, int | None]] = {}
+    for short, long in _VECTORS.items():
+        table[short] = table[long] = (short, None)
+        for index, axis in enumerate("xyz"):
+            table[short + axis] = table[long + axis.upper()] = (short, index)
+    table["sh"] = table["shear"] = ("sh", None)
+    for index, (short, long) in enumerate(_SHEAR_PARTS.items()):
+        table[short] = table[long] = ("sh", index)
+    return table
+
+
+ATTRIBUTES = _attribute_table()
+ROTATE_ORDER_NAMES = {"ro", "rotateOrder"}
+SSC_NAMES = {"ssc", "segmentScaleCompensate"}
+SCALE_NAMES = {"s", "scale"}
+INVERSE_SCALE_NAMES = {"is", "inverseScale"}
+
+_TOKEN = re.compile(
+    r"""
+      (?P<space>\s+)
+    | (?P<comment>//[^\n]*|/\*.*?\*/)
+    | (?P<open_comment>/\*)
+    | (?P<string>"(?:[^"\\\n]|\\.)*")
+    | (?P<open_string>")
+    | (?P<semicolon>;)
+    | (?P<word>[^\s;"]+)
+    """,
+    re.VERBOSE | re.DOTALL,
+)
+_ESCAPE = re.compile(r"\\(.)", re.DOTALL)
+_ESCAPES = {"n": "\n", "t": "\t", "r": "\r"}
+
+
+@dataclass(frozen=True)
+class Token:
+    """One MEL token: a word, or a quoted string (unescaped, without its quotes)."""
+
+    text: str
+    quoted: bool
+    line: int
+    column: int
+
+
+@dataclass
+class _Node:
+    """A joint or transform with the attributes that place it."""
+
+    name: str
+    kind: str
+    parent: _Node | None
+    line: int
+    values: dict[str, list[float]] = field(default_factory=dict)
+    rotate_order: str = "xyz"
+    scale_compensate: bool = True
+    scale_source: _Node | None = None
+
+    @property
+    def path(self) -> str:
+        """Full DAG path, `|group|joint`."""
+        return (self.parent.path if self.parent else "") + "|" + self.name
+
+    def vector(self, key: str) -> np.ndarray:
+        """An attribute's three values, or its default."""
+        default = [1.0, 1.0, 1.0] if key in ONE_VECTORS else [0.0, 0.0, 0.0]
+        return np.asarray(self.values.get(key, default), dtype=float)
+
+
+class _Reader:
+    """Runs the skeleton-building commands of one `.ma` file."""
+
+    def __init__(self, source: str, text: str) -> None:
+        self.source = source
+        self.text = text
+        self.line_starts = [0] + [m.end() for m in re.finditer("\n", text)]
+        self.nodes: list[_Node] = []
+        self.current: _Node | None = None
+        self.unit = "cm"
+        self.unit_factor = 1.0
+        self.unit_line: int | None = None
+        self.radians_per_unit = ANGULAR_UNITS["degree"]
+        self.linear_set_at: int | None = None
+        self.connections: list[tuple[Token, Token]] = []
+
+    # -- tokens ---------------------------------------------------------------------------
+
+    def fail(self, token: Token | None, code: str, message: str, hint: str | None = None) -> NoReturn:
+        raise QuadpipeError.single(
+            code,
+            message,
+            file=self.source,
+            line=token.line if token else None,
+            column=token.column if token else None,
+            hint=hint,
+        )
+
+    def position(self, offset: int) -> tuple[int, int]:
+        line = bisect.bisect_right(self.line_starts, offset)
+        return line, offset - self.line_starts[line - 1] + 1
+
+    def tokens(self) -> Iterator[Token | None]:
+        """Tokens in file order; None stands for a `;`."""
+        for match in _TOKEN.finditer(self.text):
+            kind = match.lastgroup
+            if kind in ("space", "comment"):
+                continue
+            line, column = self.position(match.start())
+            if kind == "semicolon":
+                yield None
+            elif kind == "string":
+                text = _ESCAPE.sub(lambda m: _ESCAPES.get(m.group(1), m.group(1)), match.group()[1:-1])
+                yield Token(text, True, line, column)
+            elif kind == "word":
+                yield Token(match.group(), False, line, column)
+            elif kind == "open_string":
+                self.fail(Token('"', False, line, column), "ma-unterminated-string",
+                          "this string has no closing quote on its line",
+                          'close the string with " (write a line break inside a string as \\n)')
+            else:
+                self.fail(Token("/*", False, line, column), "ma-unterminated-comment",
+                          "this /* comment is never closed", "close it with */")
+
+    def statements(self) -> Iterator[list[Token]]:
+        """Statements (token lists) separated by `;`; a missing final `;` means a cut file."""
+        pending: list[Token] = []
+        for token in self.tokens():
+            if token is None:
+                if pending:
+                    yield pending
+                pending = []
+            else:
+                pending.append(token)
+        if pending:
+            self.fail(pending[0], "ma-truncated",
+                      f"the file ends inside this {pending[0].text!r} statement (no closing ';')",
+                      "the file was cut short: save or export it again")
+
+    # -- commands -------------------------------------------------------------------------
+
+    def run(self) -> None:
+        commands = {
+            "createNode": self.create_node,
+            "setAttr": self.set_attr,
+            "connectAttr": self.connect_attr,
+            "currentUnit": self.current_unit,
+            "select": self.select,
+            "parent": self.parent_command,
+        }
+        for statement in self.statements():
+            command = commands.get(statement[0].text)
+            if command is not None:
+                command(statement)
+
+    def current_unit(self, statement: list[Token]) -> None:
+        for flag, value in _flag_values(statement, {"-l", "-linear", "-a", "-angle", "-t", "-time", "-ua", "-updateAnimation"}):
+            if flag.text in ("-l", "-linear"):
+                self.set_linear_unit(value)
+            elif flag.text in ("-a", "-angle"):
+                if value.text not in ANGULAR_UNITS:
+                    self.fail(value, "ma-bad-units", f"angular unit {value.text!r} is unknown",
+                              "use degree or radian")
+                self.radians_per_unit = ANGULAR_UNITS[value.text]
+
+    def set_linear_unit(self, value: Token) -> None:
+        if value.text not in LINEAR_UNITS:
+            self.fail(value, "ma-bad-units", f"linear unit {value.text!r} is unknown",
+                      did_you_mean(value.text, LINEAR_UNITS))
+        unit, factor = LINEAR_UNITS[value.text]
+        if self.linear_set_at is not None and (unit, factor) != (self.unit, self.unit_factor):
+            self.fail(value, "ma-mixed-units",
+                      f"the linear unit changes to {value.text!r} after lengths were set (line {self.linear_set_at})",
+                      "keep one currentUnit statement at the top of the file")
+        self.unit, self.unit_factor = unit, factor
+
+    def create_node(self, statement: list[Token]) -> None:
+        flags = dict(_flag_values(statement, {"-n", "-name", "-p", "-parent"}))
+        kind = next((t.text for t in statement[1:] if not t.text.startswith("-") and t not in flags.values()), None)
+        name = next((v for f, v in flags.items() if f.text in ("-n", "-name")), None)
+        parent_ref = next((v for f, v in flags.items() if f.text in ("-p", "-parent")), None)
+        if kind not in TRACKED_TYPES:
+            self.current = None
+            return
+        if name is None:
+            self.fail(statement[0], "ma-syntax", f"createNode {kind} without a -n name",
+                      'name the node: createNode joint -n "L_Hip";')
+        parent = self.resolve(parent_ref, what="parent") if parent_ref is not None else None
+        node = _Node(name.text, kind, parent, statement[0].line)
+        self.nodes.append(node)
+        self.current = node
+
+    def select(self, statement: list[Token]) -> None:
+        names = [t for t in statement[1:] if not t.text.startswith("-")]
+        self.current = self.find(names[-1].text) if names else None
+
+    def set_attr(self, statement: list[Token]) -> None:
+        attr_index = next((i for i, t in enumerate(statement) if t.quoted), None)
+        if attr_index is None:
+            return
+        target_token = statement[attr_index]
+        node_ref, _, attr = target_token.text.partition(".")
+        node = self.current if not node_ref else self.find(node_ref)
+        if node is None:
+            return
+        values = _strip_type_flag(statement[attr_index + 1:])
+        if attr in ATTRIBUTES:
+            self.set_vector(node, target_token, attr, values)
+        elif attr in ROTATE_ORDER_NAMES:
+            number = self.number(self.single(target_token, values))
+            if number not in range(len(ROTATE_ORDERS)):
+                self.fail(values[0], "ma-bad-value", f"rotate order {values[0].text} is not 0-5",
+                          "0 xyz, 1 yzx, 2 zxy, 3 xzy, 4 yxz, 5 zyx")
+            node.rotate_order = ROTATE_ORDERS[int(number)]
+        elif attr in SSC_NAMES:
+            node.scale_compensate = self.boolean(self.single(target_token, values))
+
+    def set_vector(self, node: _Node, target: Token, attr: str, values: list[Token]) -> None:
+        key, component = ATTRIBUTES[attr]
+        wanted = 1 if component is not None else 3
+        if len(values) != wanted:
+            self.fail(values[0] if values else target, "ma-bad-value",
+                      f"'.{attr}' takes {wanted} number(s), found {len(values)}",
+                      f'write it as setAttr ".{attr}"' + (' -type "double3" x y z;' if wanted == 3 else " value;"))
+        scale = self.radians_per_unit if key in ANGULAR_ATTRIBUTES else 1.0
+        numbers = [self.number(v) * scale for v in values]
+        current = list(node.vector(key))
+        if component is None:
+            current = numbers
+        else:
+            current[component] = numbers[0]
+        node.values[key] = current
+        if key not in ANGULAR_ATTRIBUTES and key not in ("s", "sh"):
+            self.linear_set_at = self.linear_set_at or target.line
+
+    def connect_attr(self, statement: list[Token]) -> None:
+        plugs = [t for t in statement[1:] if t.quoted]
+        if len(plugs) >= 2:
+            self.connections.append((plugs[0], plugs[1]))
+
+    def parent_command(self, statement: list[Token]) -> None:
+        names = [t for t in statement[1:] if not t.text.startswith("-")]
+        for child in names[:-1]:
+            if self.find(child.text) is not None:
+                self.fail(child, "ma-unsupported-command",
+                          f"'parent' moves {child.text!r} after it was created; this reader does not follow that",
+                          "create the node under its parent with createNode -p (re-save the file from Maya)")
+
+    # -- values and names -----------------------------------------------------------------
+
+    def single(self, target: Token, values: list[Token]) -> Token:
+        if len(values) != 1:
+            self.fail(values[0] if values else target, "ma-bad-value",
+                      f"{target.text!r} takes one value, found {len(values)}")
+        return values[0]
+
+    def number(self, token: Token) -> float:
+        try:
+            value = float(token.text)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value):
+            self.fail(token, "ma-bad-number", f"{token.text!r} is not a number", "write a plain decimal number")
+        return value
+
+    def boolean(self, token: Token) -> bool:
+        word = token.text.lower()
+        if word not in TRUE_WORDS | FALSE_WORDS:
+            self.fail(token, "ma-bad-value", f"{token.text!r} is not yes/no", "write yes or no")
+        return word in TRUE_WORDS
+
+    def find(self, ref: str) -> _Node | None:
+        """The tracked node a name or DAG path refers to (None if untracked or ambiguous)."""
+        matches = self.matches(ref)
+        return matches[0] if len(matches) == 1 else None
+
+    def matches(self, ref: str) -> list[_Node]:
+        if ref.startswith("|"):
+            return [n for n in self.nodes if n.path == ref]
+        if "|" in ref:
+            return [n for n in self.nodes if n.path.endswith("|" + ref)]
+        return [n for n in self.nodes if n.name == ref]
+
+    def resolve(self, token: Token, *, what: str) -> _Node:
+        matches = self.matches(token.text)
+        if not matches:
+            self.fail(token, "ma-unknown-parent",
+                      f"{what} {token.text!r} is not a joint or transform created earlier in the file",
+                      did_you_mean(token.text.rsplit("|", 1)[-1], {n.name for n in self.nodes}, listing=False)
+                      or "create the parent before its children")
+        if len(matches) > 1:
+            paths = ", ".join(n.path for n in matches)
+            self.fail(token, "ma-ambiguous-name", f"{what} {token.text!r} could be any of {paths}",
+                      "name it by its DAG path")
+        return matches[0]
+
+    def link_inverse_scales(self) -> None:
+        for source, target in self.connections:
+            source_ref, _, source_attr = source.text.rpartition(".")
+            target_ref, _, target_attr = target.text.rpartition(".")
+            if source_attr in SCALE_NAMES and target_attr in INVERSE_SCALE_NAMES:
+                node = self.find(target_ref)
+                if node is not None:
+                    node.scale_source = self.find(source_ref)
+
+    # -- result ---------------------------------------------------------------------------
+
+    def skeleton(self, name: str) -> RawSkeleton:
+        self.link_inverse_scales()
+        worlds: dict[int, np.ndarray] = {}
+        for node in self.nodes:
+            parent_world = worlds[id(node.parent)] if node.parent else np.eye(4)
+            worlds[id(node)] = local_matrix(node) @ parent_world
+        joints = [n for n in self.nodes if n.kind == "joint"]
+        names = _unique_names(joints)
+        records = []
+        for joint in joints:
+            world = worlds[id(joint)]
+            ancestor = joint.parent
+            while ancestor is not None and ancestor.kind != "joint":
+                ancestor = ancestor.parent
+            z_axis = world[2, :3]
+            norm = float(np.linalg.norm(z_axis))
+            records.append(
+                JointRecord(
+                    name=names[id(joint)],
+                    parent=names[id(ancestor)] if ancestor else None,
+                    position=tuple(float(v) * self.unit_factor for v in world[3, :3]),  # type: ignore[arg-type]
+                    axis=tuple(float(v) / norm for v in z_axis) if norm > 1e-12 else None,  # type: ignore[arg-type]
+                    line=joint.line,
+                )
+            )
+        if not records:
+            raise QuadpipeError.single("empty-skeleton", "the file creates no joint nodes", file=self.source,
+                                       hint='a skeleton is made of createNode joint -n "..." statements')
+        return RawSkeleton(name=name, source=self.source, joints=tuple(records), units=self.unit, up="y")
+
+
+def _flag_values(statement: list[Token], flags: set[str]) -> list[tuple[Token, Token]]:
+    """(flag, value) pairs for the flags in `flags` (each takes one value)."""
+    pairs = []
+    for index, token in enumerate(statement[:-1]):
+        if token.text in flags and not token.quoted:
+            pairs.append((token, statement[index + 1]))
+    return pairs
+
+
+def _strip_type_flag(values: list[Token]) -> list[Token]:
+    """Drop `-type "double3"` (and similar) from a setAttr value list."""
+    kept: list[Token] = []
+    skip = False
+    for token in values:
+        if skip:
+            skip = False
+        elif token.text in ("-type", "-typ") and not token.quoted:
+            skip = True
+        else:
+            kept.append(token)
+    return kept
+
+
+def _unique_names(joints: list[_Node]) -> dict[int, str]:
+    """Short names where they are unique among joints, full DAG paths where they are not."""
+    counts: dict[str, int] = {}
+    for joint in joints:
+        counts[joint.name] = counts.get(joint.name, 0) + 1
+    return {id(j): j.name if counts[j.name] == 1 else j.path for j in joints}
+
+
+def axis_rotation(axis: str, angle: float) -> np.ndarray:
+    """Maya's 4x4 rotation about one axis, for row vectors (`p' = p * M`)."""
+    c, s = math.cos(angle), math.sin(angle)
+    i, j = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}[axis]
+    matrix = np.eye(4)
+    matrix[i, i] = matrix[j, j] = c
+    matrix[i, j] = s
+    matrix[j, i] = -s
+    return matrix
+
+
+def euler_matrix(angles: np.ndarray, order: str = "xyz") -> np.ndarray:
+    """Rotation from Euler angles (radians) applied in `order`: xyz is RX * RY * RZ."""
+    matrix = np.eye(4)
+    for axis in order:
+        matrix = matrix @ axis_rotation(axis, float(angles["xyz".index(axis)]))
+    return matrix
+
+
+def _translation(vector: np.ndarray) -> np.ndarray:
+    matrix = np.eye(4)
+    matrix[3, :3] = vector
+    return matrix
+
+
+def _scale(vector: np.ndarray) -> np.ndarray:
+    return np.diag([*vector, 1.0])
+
+
+def _shear(values: np.ndarray) -> np.ndarray:
+    xy, xz, yz = values
+    matrix = np.eye(4)
+    matrix[1, 0], matrix[2, 0], matrix[2, 1] = xy, xz, yz
+    return matrix
+
+
+def local_matrix(node: _Node) -> np.ndarray:
+    """A node's matrix relative to its parent, by Maya's formula for joints or transforms."""
+    rotate_axis = euler_matrix(node.vector("ra"))
+    rotate = euler_matrix(node.vector("r"), node.rotate_order)
+    scale = _scale(node.vector("s"))
+    translate = _translation(node.vector("t"))
+    if node.kind == "joint":
+        inverse_scale = np.eye(4)
+        if node.scale_compensate and node.scale_source is not None:
+            inverse_scale = np.linalg.inv(_scale(node.scale_source.vector("s")))
+        return scale @ rotate_axis @ rotate @ euler_matrix(node.vector("jo")) @ inverse_scale @ translate
+    scale_pivot = _translation(node.vector("sp"))
+    rotate_pivot = _translation(node.vector("rp"))
+    return (
+        np.linalg.inv(scale_pivot) @ scale @ _shear(node.vector("sh")) @ scale_pivot
+        @ _translation(node.vector("spt")) @ np.linalg.inv(rotate_pivot) @ rotate_axis @ rotate
+        @ rotate_pivot @ _translation(node.vector("rpt")) @ translate
+    )
+
+
+def _read_text(path: Path) -> str:
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise QuadpipeError.single("file-unreadable", f"cannot read {path}: {exc.strerror}", file=str(path)) from None
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")
+
+
+def read_skeleton(path: str | Path) -> RawSkeleton:
+    """Read the joints of a Maya ASCII file, with world positions and main axes.
+
+    Raises:
+        QuadpipeError: not a Maya ASCII file, a cut-off file, an unterminated string, a bad
+            number or value, an unknown or ambiguous parent, an unknown unit.
+    """
+    path = Path(path)
+    text = _read_text(path)
+    reader = _Reader(str(path), text)
+    if not text.startswith(MAYA_HEADER):
+        reader.fail(Token("", False, 1, 1), "ma-not-maya-ascii",
+                    f"the file does not start with {MAYA_HEADER!r}, so it is not a Maya ASCII file",
+                    "export the scene from Maya as Maya ASCII (.ma); Maya itself refuses files without this header")
+    reader.run()
+    return reader.skeleton(path.name.split(".")[0])
+
+
+SKELETON_READERS = {".ma": read_skeleton}
