@@ -93,6 +93,7 @@ def animals(
     from quadpipe import configs, report
 
     rows = [report.animal_row(_built(name, None, None, None)) for name in configs.available("animals")]
+    rows.sort(key=lambda row: -row["hp_cm"])
     if fmt is OutputFormat.json:
         typer.echo(json.dumps(rows, indent=2))
         return
@@ -104,14 +105,34 @@ def animals(
 
 
 @app.command()
-def roles() -> None:
-    """List the 39 roles of the reference skeleton, with their parents.
+def roles(
+    skeleton: Annotated[
+        Optional[Path], typer.Argument(help="A skeleton file (.ma, .bvh, .xml) whose roles to guess.")
+    ] = None,
+    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="Write the guess as a role map YAML.")] = None,
+) -> None:
+    """List the 39 roles; with a skeleton file, show (and write) the roles guessed for its joints.
 
-    Example: quadpipe roles
+    Example: quadpipe roles rig.ma -o rig_roles.yaml   (then: quadpipe inspect rig.ma --roles rig_roles.yaml)
     """
     from quadpipe import roles as R
 
-    _print_table("Roles", ["role", "parent", "kind"], [[role, R.PARENT[role] or "-", R.kind_of(role)] for role in R.ROLES])
+    if skeleton is None:
+        _print_table("Roles", ["role", "parent", "kind"], [[role, R.PARENT[role] or "-", R.kind_of(role)] for role in R.ROLES])
+        return
+    from quadpipe.importers import read_raw_skeleton
+    from quadpipe.rolemap import guess_roles, write_role_map
+
+    raw = read_raw_skeleton(skeleton)
+    guess = guess_roles(raw)
+    placed = {role: name for name, role in guess.roles.items()}
+    _print_table(f"Roles guessed for {skeleton}", ["role", "joint"], [[role, placed.get(role, "(not placed)")] for role in R.ROLES])
+    if guess.missing:
+        for note in guess.notes:
+            typer.echo(f"note: {note}", err=True)
+    if output is not None:
+        write_role_map(output, guess.roles, source=raw.source, missing=guess.missing)
+        typer.echo(f"wrote {output} ({len(guess.roles)} joints placed, {len(guess.missing)} roles missing)")
 
 
 @app.command()
@@ -147,6 +168,8 @@ def inspect(
 ) -> None:
     """Show an animal's bones: roles, file names, lengths, radii, masses and joint limits.
 
+    Limits read "twist min..max ±swing1 ±swing2" in degrees.
+
     Example: quadpipe inspect horse   |   quadpipe inspect rig.bvh --roles rig_roles.yaml
     """
     from quadpipe import report
@@ -162,10 +185,10 @@ def inspect(
     )
     _print_table(
         "Bones",
-        ["role", "name", "parent", "length (cm)", "radius (cm)", "mass (kg)", "DOF", "twist min/max, swing1, swing2 (deg)"],
+        ["role", "name", "parent", "length (cm)", "radius (cm)", "mass (kg)", "DOF", "limits (deg)"],
         [
             [b["role"], b["name"], b["parent"] or "-", b["length_cm"], b["radius_cm"], b["mass_kg"], b["dof"],
-             "-" if b["limits_deg"] is None else "{} .. {}, ±{}, ±{}".format(*b["limits_deg"])]
+             "-" if b["limits_deg"] is None else "{:g}..{:g} ±{:g} ±{:g}".format(*b["limits_deg"])]
             for b in bones
         ],
     )

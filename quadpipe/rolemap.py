@@ -28,7 +28,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from quadpipe import roles as R
 from quadpipe.errors import Issue, Location, QuadpipeError, did_you_mean
-from quadpipe.skeleton import UNIT_TO_METRES, UP_AXES, JointRecord, RawSkeleton, _check_hierarchy, _index_joints
+from quadpipe.skeleton import UNIT_TO_METRES, UP_AXES, JointRecord, RawSkeleton, check_structure
 from quadpipe.yamlio import load_yaml, validate_document
 
 GLOB_CHARACTERS = "*?["
@@ -216,12 +216,15 @@ def _role_conflicts(chosen: Mapping[str, RolePattern]) -> list[Issue]:
             continue
         (first_name, first), (second_name, second) = holders[0], holders[1]
         if first is second:
-            names = ", ".join(repr(n) for n, _ in holders[:SHOWN_JOINTS]) + (" ..." if len(holders) > SHOWN_JOINTS else "")
-            issues.append(Issue("ambiguous-pattern", f"{first.pattern!r} gives role {role} to {len(holders)} joints: {names}",
+            names = ", ".join(repr(n) for n, _ in holders[:SHOWN_JOINTS])
+            names += " ..." if len(holders) > SHOWN_JOINTS else ""
+            issues.append(Issue("ambiguous-pattern",
+                                f"{first.pattern!r} gives role {role} to {len(holders)} joints: {names}",
                                 first.where, "make the pattern match one joint (write the full name)"))
         else:
             issues.append(Issue("duplicate-role",
-                                f"role {role} is given to {first_name!r} (by {first.pattern!r}, line {first.where.line}) "
+                                f"role {role} is given to {first_name!r} "
+                                f"(by {first.pattern!r}, line {first.where.line}) "
                                 f"and to {second_name!r} (by {second.pattern!r})",
                                 second.where, "each role belongs to exactly one joint"))
     return issues
@@ -348,7 +351,8 @@ def guess_roles(raw: RawSkeleton) -> RoleGuess:
     hind = [c for c in tree.children[pelvis] if c != spine_child]
     _place_limbs(tree, pelvis, hind, ("lh", "rh"), R.HIND_CHAIN, ("tail", R.TAIL), forward, report)
     front = tree.children[thorax]
-    _place_limbs(tree, thorax, front, ("lf", "rf"), R.FRONT_CHAIN, ("neck and head", (*R.NECK, R.HEAD_BONE)), forward, report)
+    neck = ("neck and head", (*R.NECK, R.HEAD_BONE))
+    _place_limbs(tree, thorax, front, ("lf", "rf"), R.FRONT_CHAIN, neck, forward, report)
     return report.result()
 
 
@@ -508,7 +512,7 @@ def resolve_roles(raw: RawSkeleton, role_map: str | Path | None = None) -> RoleR
     file_roles = {j.role: j.name for j in raw.joints if j.role}
     if set(R.ROLES) <= set(file_roles):
         return RoleResolution(raw, {})
-    _check_hierarchy(raw, _index_joints(raw))
+    check_structure(raw)
     guess = guess_roles(raw)
     if any(role not in file_roles for role in guess.missing):
         raise QuadpipeError(_missing_issues(raw, guess))
@@ -528,7 +532,7 @@ def _missing_issues(raw: RawSkeleton, guess: RoleGuess) -> list[Issue]:
         "missing-roles",
         f"{len(guess.missing)} of the 39 roles could not be guessed from the joints' names and layout: {shown}",
         raw.where(),
-        "write a role map (joint name -> role) and pass it with --roles; a map of what was guessed is a good start",
+        f"`quadpipe roles {raw.source} -o roles.yaml` writes what was guessed; complete it and pass it with --roles roles.yaml",
     )
     notes = [Issue("guessed-roles", note, raw.where(), severity="note") for note in guess.notes]
     return [error, *notes]
@@ -567,8 +571,10 @@ def _escape_glob(name: str) -> str:
 
 
 def write_role_map(path: str | Path, roles: Mapping[str, str], **options: Any) -> None:
-    """Write `role_map_text(roles, **options)` to a file."""
-    Path(path).write_text(role_map_text(roles, **options), encoding="utf-8")
+    """Write `role_map_text(roles, **options)` to a file (atomically)."""
+    from quadpipe.atomic import write_text
+
+    write_text(path, role_map_text(roles, **options))
 
 
 def write_guessed_role_map(skeleton_path: str | Path, out_path: str | Path) -> RoleGuess:

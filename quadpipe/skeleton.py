@@ -144,8 +144,7 @@ def assemble(raw: RawSkeleton, role_of: Mapping[str, str] | None = None) -> Skel
             a bone hanging under the wrong parent, a zero-length bone, a leaf without an end,
             or left legs on the right side.
     """
-    by_name = _index_joints(raw)
-    _check_hierarchy(raw, by_name)
+    by_name = check_structure(raw)
     role_of = dict(role_of or {})
     joint_of_role = _assign_roles(raw, by_name, role_of)
     _check_parents(raw, by_name, joint_of_role)
@@ -171,11 +170,24 @@ def assemble(raw: RawSkeleton, role_of: Mapping[str, str] | None = None) -> Skel
         axis = _main_axis(joint, rotation)
         bones[role] = Bone(role, joint.name, start, end, axis)
 
-    unplaced = [j.name for j in raw.joints if j.name not in {jr.name for jr in joint_of_role.values()}]
+    placed = {joint.name for joint in joint_of_role.values()}
+    end_sites = _end_sites(raw, joint_of_role)
+    unplaced = [j.name for j in raw.joints if j.name not in placed and j.name not in end_sites]
     warnings = _unplaced_warning(raw, unplaced)
     skeleton = Skeleton(raw.name, raw.source, bones, warnings)
     _check_sides(raw, skeleton)
     return skeleton
+
+
+def check_structure(raw: RawSkeleton) -> dict[str, JointRecord]:
+    """Check names are unique, parents exist and the hierarchy has no cycle; index joints by name.
+
+    Raises:
+        QuadpipeError: `duplicate-joint`, `empty-skeleton`, `unknown-parent` or `hierarchy-cycle`.
+    """
+    by_name = _index_joints(raw)
+    _check_hierarchy(raw, by_name)
+    return by_name
 
 
 def _index_joints(raw: RawSkeleton) -> dict[str, JointRecord]:
@@ -303,6 +315,13 @@ def _end_point(
         where=raw.where(joint),
         hint="add an end point (an `end` attribute, an End Site, or an end joint below it)",
     )
+
+
+def _end_sites(raw: RawSkeleton, joint_of_role: Mapping[str, JointRecord]) -> set[str]:
+    """Unplaced childless joints that only mark where a leaf bone ends (Maya end joints)."""
+    leaves = {joint_of_role[role].name for role in R.LEAVES}
+    parents = {joint.parent for joint in raw.joints}
+    return {j.name for j in raw.joints if j.parent in leaves and j.name not in parents and j.role is None}
 
 
 def _body_rotation(raw: RawSkeleton, joint_of_role: Mapping[str, JointRecord]) -> np.ndarray:

@@ -99,3 +99,15 @@ def test_help_of_every_command_has_an_example(cli):
         result = cli(name, "--help")
         assert result.returncode == 0
         assert "Example:" in result.stdout, name
+
+
+def test_roles_guesses_a_bvh_and_writes_a_role_map_that_loads(cli, tmp_path):
+    source = FIXTURES / "skeletons" / "reference.bvh"
+    role_map = tmp_path / "roles.yaml"
+    result = cli("roles", str(source), "-o", str(role_map))
+    assert result.returncode == 0, result.stderr
+    assert "39 joints placed, 0 roles missing" in result.stdout
+    inspected = cli("inspect", str(source), "--roles", str(role_map), "--format", "json")
+    assert inspected.returncode == 0, inspected.stderr
+    bones = {bone["role"]: bone["name"] for bone in json.loads(inspected.stdout)["bones"]}
+    assert bones["lh_hip"] == "Bip01 L Thigh" and bones["pelvis"] == "Bip01 Pelvis"

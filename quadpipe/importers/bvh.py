@@ -116,7 +116,8 @@ class _Parser:
         except ValueError:
             value = math.nan
         if not math.isfinite(value):
-            self.fail(token, "bvh-bad-number", f"{token.text!r} is not a number ({what})", "write a plain decimal number")
+            self.fail(token, "bvh-bad-number", f"{token.text!r} is not a number ({what})",
+                      "write a plain decimal number")
         return value
 
     def offset(self, inside: _Joint, what: str) -> Vector:
@@ -136,7 +137,8 @@ class _Parser:
             if keyword == "ROOT":
                 self.joint(token, None)
             elif token.text == "}":
-                self.fail(token, "bvh-unbalanced-braces", "this '}' closes nothing", "remove it, or find the '{' it should close")
+                self.fail(token, "bvh-unbalanced-braces", "this '}' closes nothing",
+                          "remove it, or find the '{' it should close")
             else:
                 self.fail(token, "bvh-syntax", f"expected ROOT or MOTION, found {token.text!r}")
         if not self.joints:
@@ -204,11 +206,13 @@ class _Parser:
         if site.text.upper() != "SITE" or site.line != keyword.line:
             self.fail(keyword, "bvh-syntax", "expected 'End Site'")
         if joint.end is not None:
-            self.fail(keyword, "bvh-syntax", f"joint {joint.name!r} has a second End Site", "keep one End Site per joint")
+            self.fail(keyword, "bvh-syntax", f"joint {joint.name!r} has a second End Site",
+                      "keep one End Site per joint")
         self.expect_open(joint)
         offset_token = self.take(joint)
         if offset_token.text.upper() != "OFFSET":
-            self.fail(offset_token, "bvh-syntax", f"expected OFFSET in the End Site of {joint.name!r}, found {offset_token.text!r}")
+            self.fail(offset_token, "bvh-syntax",
+                      f"expected OFFSET in the End Site of {joint.name!r}, found {offset_token.text!r}")
         offset = self.offset(joint, f"End Site of {joint.name!r}")
         joint.end = tuple(p + d for p, d in zip(joint.position, offset))  # type: ignore[arg-type, assignment]
         closing = self.take(joint)

@@ -30,7 +30,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterator, NoReturn
+from typing import Callable, Iterator, NoReturn
 
 import numpy as np
 
@@ -71,6 +71,9 @@ ANGULAR_ATTRIBUTES = {"r", "jo", "ra"}
 
 ONE_VECTORS = {"s"}
 """Vector attributes whose default is (1, 1, 1) rather than zero."""
+
+CURRENT_UNIT_FLAGS = {"-l", "-linear", "-a", "-angle", "-t", "-time", "-ua", "-updateAnimation"}
+"""Flags of `currentUnit` that take a value."""
 
 TRUE_WORDS = {"yes", "true", "on", "1"}
 FALSE_WORDS = {"no", "false", "off", "0"}
@@ -156,10 +159,17 @@ class _Reader:
         self.current: _Node | None = None
         self.unit = "cm"
         self.unit_factor = 1.0
-        self.unit_line: int | None = None
         self.radians_per_unit = ANGULAR_UNITS["degree"]
         self.linear_set_at: int | None = None
         self.connections: list[tuple[Token, Token]] = []
+        self.commands: dict[str, Callable[[list[Token]], None]] = {
+            "createNode": self.create_node,
+            "setAttr": self.set_attr,
+            "connectAttr": self.connect_attr,
+            "currentUnit": self.current_unit,
+            "select": self.select,
+            "parent": self.parent_command,
+        }
 
     # -- tokens ---------------------------------------------------------------------------
 
@@ -177,61 +187,66 @@ class _Reader:
         line = bisect.bisect_right(self.line_starts, offset)
         return line, offset - self.line_starts[line - 1] + 1
 
-    def tokens(self) -> Iterator[Token | None]:
-        """Tokens in file order; None stands for a `;`."""
-        for match in _TOKEN.finditer(self.text):
-            kind = match.lastgroup
-            if kind in ("space", "comment"):
-                continue
-            line, column = self.position(match.start())
-            if kind == "semicolon":
-                yield None
-            elif kind == "string":
-                text = _ESCAPE.sub(lambda m: _ESCAPES.get(m.group(1), m.group(1)), match.group()[1:-1])
-                yield Token(text, True, line, column)
-            elif kind == "word":
-                yield Token(match.group(), False, line, column)
-            elif kind == "open_string":
-                self.fail(Token('"', False, line, column), "ma-unterminated-string",
-                          "this string has no closing quote on its line",
-                          'close the string with " (write a line break inside a string as \\n)')
-            else:
-                self.fail(Token("/*", False, line, column), "ma-unterminated-comment",
-                          "this /* comment is never closed", "close it with */")
+    def token(self, match: re.Match[str]) -> Token:
+        """The token a regex match stands for; an unclosed string or comment is an error."""
+        line, column = self.position(match.start())
+        kind = match.lastgroup
+        if kind == "string":
+            text = _ESCAPE.sub(lambda m: _ESCAPES.get(m.group(1), m.group(1)), match.group()[1:-1])
+            return Token(text, True, line, column)
+        if kind == "open_string":
+            self.fail(Token('"', False, line, column), "ma-unterminated-string",
+                      "this string has no closing quote on its line",
+                      'close the string with " (write a line break inside a string as \\n)')
+        if kind == "open_comment":
+            self.fail(Token("/*", False, line, column), "ma-unterminated-comment",
+                      "this /* comment is never closed", "close it with */")
+        return Token(match.group(), False, line, column)
 
     def statements(self) -> Iterator[list[Token]]:
-        """Statements (token lists) separated by `;`; a missing final `;` means a cut file."""
+        """Statements (token lists) separated by `;`; a missing final `;` means a cut file.
+
+        Statements this reader does not run are scanned without building their tokens (mesh
+        data can be millions of numbers).
+        """
         pending: list[Token] = []
-        for token in self.tokens():
-            if token is None:
-                if pending:
+        skipping = False
+        for match in _TOKEN.finditer(self.text):
+            kind = match.lastgroup
+            if kind in ("space", "comment") or (skipping and kind in ("word", "string")):
+                continue
+            if kind == "semicolon":
+                if pending and not skipping:
                     yield pending
-                pending = []
-            else:
-                pending.append(token)
+                pending, skipping = [], False
+                continue
+            pending.append(self.token(match))
+            skipping = self.ignorable(pending)
         if pending:
             self.fail(pending[0], "ma-truncated",
                       f"the file ends inside this {pending[0].text!r} statement (no closing ';')",
                       "the file was cut short: save or export it again")
 
+    def ignorable(self, pending: list[Token]) -> bool:
+        """Whether a statement begun with these tokens cannot matter to the skeleton."""
+        command = pending[0].text
+        if command not in self.commands:
+            return True
+        last = pending[-1]
+        if command != "setAttr" or not last.quoted or any(t.quoted for t in pending[1:-1]):
+            return False  # only setAttr's attribute (its first string) can tell
+        node_ref, _, attr = last.text.partition(".")
+        known = attr in ATTRIBUTES or attr in ROTATE_ORDER_NAMES or attr in SSC_NAMES
+        return not known or (not node_ref and self.current is None)
+
     # -- commands -------------------------------------------------------------------------
 
     def run(self) -> None:
-        commands = {
-            "createNode": self.create_node,
-            "setAttr": self.set_attr,
-            "connectAttr": self.connect_attr,
-            "currentUnit": self.current_unit,
-            "select": self.select,
-            "parent": self.parent_command,
-        }
         for statement in self.statements():
-            command = commands.get(statement[0].text)
-            if command is not None:
-                command(statement)
+            self.commands[statement[0].text](statement)
 
     def current_unit(self, statement: list[Token]) -> None:
-        for flag, value in _flag_values(statement, {"-l", "-linear", "-a", "-angle", "-t", "-time", "-ua", "-updateAnimation"}):
+        for flag, value in _flag_values(statement, CURRENT_UNIT_FLAGS):
             if flag.text in ("-l", "-linear"):
                 self.set_linear_unit(value)
             elif flag.text in ("-a", "-angle"):
