@@ -12,6 +12,36 @@ from quadpipe.errors import QuadpipeError
 
 
 @contextlib.contextmanager
+def atomic_path(path: str | Path, suffix: str = ".part") -> Iterator[Path]:
+    """A fresh temporary path beside `path`, for writers that need a file name (USD).
+
+    Whatever is left at that path when the block ends is removed; the caller renames it onto
+    `path` (with `os.replace`) when, and only when, it is complete. `suffix` keeps the format
+    suffix that some writers choose their format by.
+
+    Raises:
+        QuadpipeError: the folder does not exist or is not writable.
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        handle, temp_name = tempfile.mkstemp(prefix=f".{path.name}.tmp-", suffix=suffix, dir=folder)
+    except OSError as exc:
+        raise QuadpipeError.single(
+            "unwritable-output",
+            f"cannot write {str(path)!r}: {exc.strerror}",
+            file=str(path),
+            hint="check that the folder exists and is writable",
+        ) from None
+    os.close(handle)
+    os.chmod(temp_name, _new_file_mode())
+    try:
+        yield Path(temp_name)
+    finally:
+        Path(temp_name).unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
 def atomic_output(path: str | Path, mode: str = "wb") -> Iterator[IO]:
     """Open a temporary file beside `path`; on success it replaces `path` in one rename.
 
@@ -22,28 +52,20 @@ def atomic_output(path: str | Path, mode: str = "wb") -> Iterator[IO]:
     Raises:
         QuadpipeError: the folder does not exist or is not writable.
     """
-    path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    try:
-        handle, temp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=folder)
-    except OSError as exc:
-        raise QuadpipeError.single(
-            "unwritable-output",
-            f"cannot write {str(path)!r}: {exc.strerror}",
-            file=str(path),
-            hint="check that the folder exists and is writable",
-        ) from None
-    try:
+    with atomic_path(path) as temporary:
         encoding = None if "b" in mode else "utf-8"
-        with os.fdopen(handle, mode, encoding=encoding) as stream:
+        with open(temporary, mode, encoding=encoding) as stream:
             yield stream
             stream.flush()
             os.fsync(stream.fileno())
-        os.replace(temp_name, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(temp_name)
-        raise
+        os.replace(temporary, path)
+
+
+def _new_file_mode() -> int:
+    """The permissions `open()` gives a new file under the current umask (mkstemp's are 0600)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
 
 
 def write_text(path: str | Path, text: str) -> None:

@@ -1,0 +1,172 @@
+"""Exporters: a baked `Clip` into files that Blender, Maya, usdview, game engines and three.js load.
+
+Each module writes one family of formats and ends with a table registering its writers by file
+suffix (`EXPORTERS = {".glb": export_glb, ...}`), and, if it needs an optional package, a
+`REQUIRES = {import name: pip name}` table; this package merges the tables (as trimesh's
+`exchange` does). A format whose package is missing is listed as unavailable with its install
+hint, and only fails when it is used. To add a format, write a module and add it to `_MODULES`.
+
+Every write is atomic: a failed export never leaves a partial file behind.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import inspect
+from dataclasses import dataclass
+from importlib import import_module
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from quadpipe.clip import Clip
+from quadpipe.errors import QuadpipeError
+
+_MODULES = ("gltf", "usd", "bvh", "npz")
+
+Exporter = Callable[[Clip, Path], None]
+
+
+@dataclass(frozen=True)
+class ExportFormat:
+    """One writable file format.
+
+    Attributes:
+        suffix: file suffix, with its dot (`.glb`).
+        description: what the file holds.
+        available: whether the packages it needs are installed.
+        install_hint: how to make it available (`pip install usd-core`), None when it is.
+    """
+
+    suffix: str
+    description: str
+    available: bool
+    install_hint: str | None
+
+
+def _module_formats(name: str) -> list[tuple[ExportFormat, Exporter]]:
+    module = import_module(f"{__name__}.{name}")
+    missing = [package for module_name, package in getattr(module, "REQUIRES", {}).items()
+               if importlib.util.find_spec(module_name) is None]
+    hint = f"pip install {' '.join(missing)}" if missing else None
+    return [
+        (ExportFormat(suffix, inspect.getdoc(writer).splitlines()[0].rstrip("."), not missing, hint), writer)
+        for suffix, writer in module.EXPORTERS.items()
+    ]
+
+
+def _registry() -> dict[str, tuple[ExportFormat, Exporter]]:
+    return {fmt.suffix: (fmt, writer) for name in _MODULES for fmt, writer in _module_formats(name)}
+
+
+def supported_formats() -> list[ExportFormat]:
+    """Every format quadpipe can write, available or not, sorted by suffix."""
+    return sorted((fmt for fmt, _ in _registry().values()), key=lambda fmt: fmt.suffix)
+
+
+def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False) -> Path:
+    """Write `clip` to `path`, in the format its suffix names.
+
+    Args:
+        clip: the baked simulation.
+        path: the output file; its folder must exist.
+        allow_partial: export a clip whose simulation did not end well (metadata `status` other
+            than "ok"), keeping the frames before the first non-finite pose. Without it such a
+            clip is refused.
+
+    Returns:
+        The path written.
+
+    Raises:
+        QuadpipeError: `unknown-format` (listing the formats), `format-unavailable` (with the
+            install hint), `bad-clip` (a blown-up or empty clip), `unwritable-output`.
+    """
+    path = Path(path)
+    fmt, writer = _writer_for(path)
+    clip = _exportable(clip, allow_partial, path)
+    if path.is_dir():
+        raise QuadpipeError.single(
+            "unwritable-output", f"{str(path)!r} is a folder", file=str(path), hint="give a file name, e.g. clip" + fmt.suffix
+        )
+    try:
+        writer(clip, path)
+    except OSError as exc:
+        raise QuadpipeError.single(
+            "unwritable-output", f"cannot write {str(path)!r}: {exc.strerror or exc}", file=str(path),
+            hint="check that the folder exists and is writable, and that the disk is not full",
+        ) from None
+    return path
+
+
+def _writer_for(path: Path) -> tuple[ExportFormat, Exporter]:
+    registry = _registry()
+    suffix = path.suffix.lower()
+    if suffix not in registry:
+        raise QuadpipeError.single(
+            "unknown-format",
+            f"quadpipe cannot write {suffix or 'files without a suffix'!r} clips ({str(path)!r})",
+            file=str(path),
+            hint=_formats_hint(registry),
+        )
+    fmt, writer = registry[suffix]
+    if not fmt.available:
+        raise QuadpipeError.single(
+            "format-unavailable",
+            f"writing {suffix} needs a package that is not installed",
+            file=str(path),
+            hint=fmt.install_hint,
+        )
+    return fmt, writer
+
+
+def _formats_hint(registry: dict[str, tuple[ExportFormat, Exporter]]) -> str:
+    formats = sorted((fmt for fmt, _ in registry.values()), key=lambda fmt: fmt.suffix)
+    hint = "supported: " + ", ".join(fmt.suffix for fmt in formats if fmt.available)
+    unavailable = [fmt for fmt in formats if not fmt.available]
+    if unavailable:
+        hint += "; unavailable: " + ", ".join(f"{fmt.suffix} ({fmt.install_hint})" for fmt in unavailable)
+    return hint
+
+
+def _exportable(clip: Clip, allow_partial: bool, path: Path) -> Clip:
+    """The clip to write: refuse empty or blown-up clips, or trim the latter with `allow_partial`."""
+    status = clip.metadata.get("status", "ok")
+    if clip.frame_count == 0:
+        raise QuadpipeError.single("bad-clip", "the clip has no frames", file=str(path), hint="simulate at least one frame")
+    finite = finite_frames(clip)
+    if status == "ok" and finite == clip.frame_count:
+        return clip
+    if not allow_partial:
+        why = f"the simulation did not end well ({status})" if status != "ok" else f"frame {finite} holds NaN or infinite poses"
+        raise QuadpipeError.single(
+            "bad-clip", f"refusing to export a broken clip: {why}", file=str(path),
+            hint="fix the scene or controller, or export the frames before the failure (allow_partial=True; CLI: --allow-partial)",
+        )
+    if finite == 0:
+        raise QuadpipeError.single("bad-clip", "the clip's first frame is already broken: nothing to export", file=str(path))
+    return _first_frames(clip, finite)
+
+
+def finite_frames(clip: Clip) -> int:
+    """How many leading frames have finite poses for every animal and prop."""
+    arrays = [a for track in clip.animals for a in (track.positions, track.rotations)]
+    arrays += [a for track in clip.props for a in (track.positions, track.rotations)]
+    good = np.ones(clip.frame_count, dtype=bool)
+    for array in arrays:
+        good &= np.isfinite(array.reshape(clip.frame_count, -1)).all(axis=1)
+    return clip.frame_count if good.all() else int(np.argmin(good))
+
+
+def _first_frames(clip: Clip, count: int) -> Clip:
+    """A copy of `clip` keeping its first `count` frames (metadata says so)."""
+    animals = [
+        dataclasses.replace(track, positions=track.positions[:count], rotations=track.rotations[:count],
+                            foot_contacts=track.foot_contacts[:count])
+        for track in clip.animals
+    ]
+    props = [dataclasses.replace(track, positions=track.positions[:count], rotations=track.rotations[:count]) for track in clip.props]
+    metadata = {**clip.metadata, "exported_frames": f"{count} of {clip.frame_count}"}
+    sensors = {name: values[:count] for name, values in clip.sensors.items()}
+    return dataclasses.replace(clip, animals=animals, props=props, sensors=sensors, metadata=metadata)

@@ -1,0 +1,119 @@
+"""BVH (Biovision hierarchy): one animal's skeleton and motion, for retargeting tools.
+
+Conventions, as motion-capture tools (Blender, MotionBuilder, Maya's importers) expect them:
+y up, the animal facing +Z, +X its left (quadpipe's frame with the axes cycled, so
+handedness is kept), lengths in **centimetres** (quadpipe's BVH importer reads centimetres).
+
+- `ROOT pelvis` with `OFFSET` = the pelvis joint's rest position in the world and six
+  channels `Xposition Yposition Zposition Zrotation Xrotation Yrotation`; the position
+  channels hold the pelvis's world position (absolute, equal to the OFFSET at rest).
+- `JOINT <role>` for every other bone, `OFFSET` = its rest offset from its parent's joint,
+  three channels `Zrotation Xrotation Yrotation` (degrees): the joint's rotation relative to
+  its parent is Rz * Rx * Ry, in that order, as BVH readers compose channels.
+- `End Site` under each leaf bone (head, tail tip, toes) at the bone's end.
+- `Frame Time` = 1 / fps. Angles are unwrapped frame to frame (no 360-degree jumps).
+
+The rest pose is the clip's rest pose, in which every bone frame is world-aligned, so all
+rotations are zero at rest.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from quadpipe.atomic import write_text
+from quadpipe.clip import AnimalTrack, Clip
+from quadpipe.errors import QuadpipeError
+from quadpipe.exporters.kinematics import local_poses, quat_to_y_up, rest_offsets, to_matrix, to_y_up
+
+CM_PER_M = 100.0
+
+ROOT_CHANNELS = "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"
+JOINT_CHANNELS = "CHANNELS 3 Zrotation Xrotation Yrotation"
+
+DECIMALS = 6
+"""Digits after the point: 1e-6 cm and 1e-6 degrees."""
+
+INDENT = "\t"
+
+
+def zxy_euler_degrees(matrices: np.ndarray) -> np.ndarray:
+    """Angles (z, x, y) in degrees with R = Rz(z) @ Rx(x) @ Ry(y), for (..., 3, 3) rotations."""
+    x = np.arcsin(np.clip(matrices[..., 2, 1], -1.0, 1.0))
+    z = np.arctan2(-matrices[..., 0, 1], matrices[..., 1, 1])
+    y = np.arctan2(-matrices[..., 2, 0], matrices[..., 2, 2])
+    return np.degrees(np.stack([z, x, y], axis=-1))
+
+
+def bvh_text(clip: Clip) -> str:
+    """The BVH file of a one-animal clip.
+
+    Raises:
+        QuadpipeError: `bvh-one-animal` when the clip holds no animal or several.
+    """
+    if len(clip.animals) != 1:
+        raise QuadpipeError.single(
+            "bvh-one-animal",
+            f"a BVH file holds one skeleton, and this clip has {len(clip.animals)} animals",
+            hint="export the scene to .glb or .usd instead, or simulate one animal for BVH",
+        )
+    track = clip.animals[0]  # roles run parents first: bone 0 is the root
+    lines = ["HIERARCHY"]
+    _write_joint(track, 0, 0, lines)
+    lines += ["MOTION", f"Frames: {track.positions.shape[0]}", f"Frame Time: {1.0 / clip.fps:.8f}"]
+    lines += [_numbers(row) for row in motion_rows(track)]
+    return "\n".join(lines) + "\n"
+
+
+def _numbers(values: np.ndarray) -> str:
+    """Values with DECIMALS digits, never written as -0.000000."""
+    return " ".join(f"{v:.{DECIMALS}f}" for v in np.round(values, DECIMALS) + 0.0)
+
+
+def _write_joint(track: AnimalTrack, index: int, depth: int, lines: list[str]) -> None:
+    """Append the HIERARCHY block of joint `index` and, recursively, of its children."""
+    pad = INDENT * depth
+    offset = to_y_up(rest_offsets(track)[index]) * CM_PER_M
+    root = track.parents[index] < 0
+    lines += [f"{pad}{'ROOT' if root else 'JOINT'} {track.roles[index]}", f"{pad}{{",
+              f"{pad}{INDENT}OFFSET {_numbers(offset)}", f"{pad}{INDENT}{ROOT_CHANNELS if root else JOINT_CHANNELS}"]
+    children = np.flatnonzero(track.parents == index)
+    for child in children:
+        _write_joint(track, int(child), depth + 1, lines)
+    if children.size == 0:
+        end = to_y_up(track.rest_end[index] - track.rest_start[index]) * CM_PER_M
+        lines += [f"{pad}{INDENT}End Site", f"{pad}{INDENT}{{", f"{pad}{INDENT * 2}OFFSET {_numbers(end)}", f"{pad}{INDENT}}}"]
+    lines.append(f"{pad}}}")
+
+
+def hierarchy_order(track: AnimalTrack) -> list[int]:
+    """Bone indices in the order the HIERARCHY lists them (depth first, children in role order)."""
+    order: list[int] = []
+
+    def visit(index: int) -> None:
+        order.append(index)
+        for child in np.flatnonzero(track.parents == index):
+            visit(int(child))
+
+    visit(0)
+    return order
+
+
+def motion_rows(track: AnimalTrack) -> np.ndarray:
+    """(F, 3 + 3B) channel values per frame, joints in hierarchy order."""
+    translations, rotations = local_poses(track)
+    angles = zxy_euler_degrees(to_matrix(quat_to_y_up(rotations)))
+    angles = np.degrees(np.unwrap(np.radians(angles), axis=0))
+    order = hierarchy_order(track)
+    root = to_y_up(translations[:, order[0]]) * CM_PER_M
+    return np.concatenate([root, angles[:, order].reshape(len(angles), -1)], axis=1)
+
+
+def export_bvh(clip: Clip, path: Path) -> None:
+    """BVH motion capture: one animal's skeleton (cm, y up) and joint rotations per frame."""
+    write_text(path, bvh_text(clip))
+
+
+EXPORTERS = {".bvh": export_bvh}
