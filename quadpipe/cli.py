@@ -194,6 +194,104 @@ def inspect(
     )
 
 
+class ValidateFormat(str, Enum):
+    """Report formats of `validate`."""
+
+    text = "text"
+    json = "json"
+    github = "github"
+
+
+@app.command()
+def validate(
+    files: Annotated[list[str], typer.Argument(help="Controller files, folders of them, or built-in controller names.")],
+    fmt: Annotated[ValidateFormat, typer.Option("--format", help="text, json, or github (annotations for CI).")] = ValidateFormat.text,
+) -> None:
+    """Check controller files: syntax, schema, roles, units and references. Exit 1 on any error.
+
+    Example: quadpipe validate configs/controllers/ --format github
+    """
+    from quadpipe.controller_dsl import validate_files
+
+    report, code = validate_files(files, fmt.value)
+    if report:
+        typer.echo(report)
+    raise typer.Exit(code)
+
+
+class SchemaKind(str, Enum):
+    """Files that have a JSON Schema."""
+
+    controller = "controller"
+
+
+@app.command()
+def schema(kind: Annotated[SchemaKind, typer.Argument(help="Which file format.")]) -> None:
+    """Print the JSON Schema of a file format, for editors (yaml-language-server) and CI.
+
+    Example: quadpipe schema controller > controller.schema.json
+    """
+    from quadpipe.controller_dsl import controller_json_schema
+
+    typer.echo(json.dumps(controller_json_schema(), indent=2))
+
+
+@app.command()
+def controllers() -> None:
+    """List the built-in controllers with their descriptions.
+
+    Example: quadpipe controllers
+    """
+    from quadpipe import configs
+    from quadpipe.controller_dsl import load_controller
+
+    rows = [[name, load_controller(name).description] for name in configs.available("controllers")]
+    _print_table("Controllers", ["name", "description"], rows)
+
+
+@app.command()
+def simulate(
+    animal: Annotated[str, typer.Option("--animal", "-a", help="Animal name or config file.")] = "dog",
+    controller: Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")] = "rigid",
+    seconds: Annotated[float, typer.Option("--seconds", "-s", min=0.0, help="Simulated time.")] = 10.0,
+    output: Annotated[Path, typer.Option("-o", "--output", help="Clip to write (.npz).")] = Path("run.npz"),
+    metrics: Annotated[Optional[Path], typer.Option("--metrics", help="Metrics JSON (default: beside the clip).")] = None,
+    parameters: Annotated[
+        Optional[list[str]], typer.Option("--set", help="Override a controller parameter: NAME=VALUE (repeatable).")
+    ] = None,
+) -> None:
+    """Simulate an animal under a controller and write the clip and its metrics.
+
+    Example: quadpipe simulate --animal dog --controller spine_walk --seconds 10 -o run.npz
+    """
+    from quadpipe.atomic import write_text
+    from quadpipe.exporters import export_clip
+    from quadpipe.simulate import simulate as run_simulation
+
+    result = run_simulation(animal, controller, seconds=seconds, parameters=_parameters(parameters))
+    export_clip(result.clip, output)
+    metrics_path = metrics or output.with_suffix(".metrics.json")
+    write_text(metrics_path, json.dumps(result.metrics, indent=2) + "\n")
+    figures = next(iter(result.metrics["animals"].values()))
+    typer.echo(
+        f"wrote {output} and {metrics_path}: {result.metrics['frames']} frames, "
+        f"{figures['distance_hp']:.2f} HP travelled, pelvis {figures['pelvis_height_min_hp']:.2f}-"
+        f"{figures['pelvis_height_max_hp']:.2f} HP{', FELL' if figures['fell'] else ''}"
+    )
+
+
+def _parameters(pairs: list[str] | None) -> dict[str, str]:
+    from quadpipe.errors import QuadpipeError
+
+    result = {}
+    for pair in pairs or []:
+        name, sep, value = pair.partition("=")
+        if not sep or not name.strip():
+            raise QuadpipeError.single("bad-parameter", f"--set {pair!r} is not NAME=VALUE", hint="e.g. --set \"pedal_force=0.2 bw\"")
+        result[name.strip()] = value.strip()
+    return result
+
+
 def _print_table(title: str, headers: list[str], rows: list[list]) -> None:
     from rich.console import Console
     from rich.table import Table

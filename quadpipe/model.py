@@ -60,10 +60,17 @@ JOINT_ARMATURE = 0.002
 BONE_PRIORITY = 1
 """Bone geoms win contact parameter mixing, so each animal keeps its own softness."""
 
+ANIMAL_GEOM_GROUP = 1
+"""Geom group of bones: terrain and props stay in group 0, so ground rays can skip the animals."""
+
 ANIMAL_CONTYPE, ANIMAL_CONAFFINITY = 2, 1
 """Collision bits: bones touch the world (bit 1) but not each other."""
 
 FRICTION = (1.0, 0.005, 0.0001)
+"""Sliding, torsional and rolling friction of bone geoms."""
+
+BONE_RGBA = (0.86, 0.80, 0.68, 1.0)
+"""Bone colour: ivory."""
 """Sliding, torsional and rolling friction of bone geoms."""
 
 
@@ -169,6 +176,8 @@ def _add_defaults(spec: mujoco.MjSpec, animal: Animal, tau: float) -> dict[str, 
     bone.geom.contype = ANIMAL_CONTYPE
     bone.geom.conaffinity = ANIMAL_CONAFFINITY
     bone.geom.priority = BONE_PRIORITY
+    bone.geom.group = ANIMAL_GEOM_GROUP
+    bone.geom.rgba = list(BONE_RGBA)
     bone.geom.solref = [tau, 1.0]
     bone.geom.solimp = sizing.constraint_impedance(hp)
     bone.geom.friction = list(FRICTION)

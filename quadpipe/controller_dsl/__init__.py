@@ -8,7 +8,7 @@ and state machines — over the body's roles, with quantities in scale-free unit
 Entry points:
 
 - `load_controller(name_or_path)` -> `ControllerSpec` (validated, `extends` merged);
-- `validate_files(paths, fmt)` -> (report, exit code), for `quadpipe controllers validate`;
+- `validate_files(paths, fmt)` -> (report, exit code), for `quadpipe validate`;
 - `compile_controller(spec, scale)` -> `CompiledController`, numpy callables over animals;
 - `compile_quantity(value, scale)` for a single value;
 - `controller_json_schema()`, `reference_markdown()`, `render_docs(text)` for documentation.

@@ -1,4 +1,4 @@
-"""`quadpipe controllers validate`: check controller files and report every issue.
+"""`quadpipe validate`: check controller files and report every issue.
 
 `validate_files(paths, fmt)` returns the report text and the exit code (1 when any error
 was found, 0 otherwise). Formats:
