@@ -283,7 +283,7 @@ def test_spine_walk_pedals_rudder_and_slope(two_animals: Scale) -> None:
     compiled = compile_controller(load_controller("spine_walk"), two_animals)
     shoulder = compiled.elements["shoulder_pedal"]
     assert shoulder.value("sites", "rf_shoulder.start").constant == pytest.approx([0.75, 0.75])
-    period = compiled.elements["hip_pedal"].value("period").constant
+    period = compiled.elements["gait"].value("period").constant
     assert period[0] == pytest.approx(38 / 30, rel=1e-3)
     assert period[1] == pytest.approx(38 / 30 * np.sqrt(RAT_HP / DOG_HP), rel=1e-3)
     rudder = compiled.elements["rudder"]
@@ -431,3 +431,18 @@ def test_json_schema_accepts_shipped_controllers_and_rejects_unknown_keys() -> N
 def test_render_docs_needs_its_markers() -> None:
     with pytest.raises(ValueError):
         render_docs("# no markers here\n")
+
+
+def test_gait_helpers_sweep_lift_and_wrap() -> None:
+    scale = Scale.of([DOG_HP], [30.0])
+    phases = np.array([0.0, 0.325, 0.65, 0.825, 0.999])
+
+    def value(text: str, p: float) -> float:
+        return float(X.compile_quantity(text.replace("P", str(float(p))), scale)({})[0])
+
+    sweep = [value("leg_sweep(P, 0.65)", p) for p in phases]
+    assert sweep[:3] == pytest.approx([1.0, 0.0, -1.0], abs=1e-9)  # back through stance
+    assert sweep[3] == pytest.approx(0.0, abs=1e-9) and sweep[4] == pytest.approx(1.0, abs=1e-3)  # forward in swing
+    lift = [value("leg_lift(P, 0.65)", p) for p in phases]
+    assert lift[:3] == [0.0, 0.0, 0.0] and lift[3] == pytest.approx(1.0)
+    assert value("wrap(P - 0.25)", 0.1) == pytest.approx(0.85)

@@ -386,6 +386,33 @@ def _smoothstep(e0: np.ndarray, e1: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.where(e1 == e0, (x >= e0).astype(float), u * u * (3.0 - 2.0 * u))
 
 
+def _numbers(name: str, count: int) -> Callable[[list[Type], str], Type]:
+    """Type rule of a function of `count` plain numbers returning a plain number."""
+
+    def rule(types: list[Type], text: str) -> Type:
+        _arity(types, name, count, text)
+        for typ in types:
+            _need(typ, SCALAR, (U.NONE,), name, text)
+        return NUMBER
+
+    return rule
+
+
+def _leg_sweep(p: np.ndarray, duty: np.ndarray) -> np.ndarray:
+    """+1 -> -1 linearly while 0 <= p < duty (stance), then -1 -> +1 smoothly (swing)."""
+    duty = np.clip(duty, 1e-6, 1.0 - 1e-6)
+    stance = 1.0 - 2.0 * p / duty
+    swing = 2.0 * _smoothstep(duty, np.ones_like(duty), p) - 1.0
+    return np.where(p < duty, stance, swing)
+
+
+def _leg_lift(p: np.ndarray, duty: np.ndarray) -> np.ndarray:
+    """0 in stance (p < duty), a half sine bump 0 -> 1 -> 0 across the swing."""
+    duty = np.clip(duty, 1e-6, 1.0 - 1e-6)
+    progress = np.clip((p - duty) / (1.0 - duty), 0.0, 1.0)
+    return np.where(p < duty, 0.0, np.sin(np.pi * progress))
+
+
 def _horizontal(v: np.ndarray) -> np.ndarray:
     out = np.array(v, dtype=float, copy=True)
     out[..., 2] = 0.0
@@ -415,6 +442,9 @@ FUNCTIONS: dict[str, Function] = {
         Function("min", "min(a, b, ...)", "smallest of values in the same unit", _same_scalar("min", None), lambda *xs: np.minimum.reduce(xs)),
         Function("max", "max(a, b, ...)", "largest of values in the same unit", _same_scalar("max", None), lambda *xs: np.maximum.reduce(xs)),
         Function("clamp", "clamp(x, low, high)", "x kept between low and high (same unit)", _same_scalar("clamp", 3), lambda x, lo, hi: np.minimum(np.maximum(x, lo), hi)),
+        Function("wrap", "wrap(number)", "the fractional part, 0 to 1 (`wrap(phase(gait) - 0.25)` is a phase 0.25 later)", _numbers("wrap", 1), lambda x: np.mod(x, 1.0)),
+        Function("leg_sweep", "leg_sweep(phase, duty)", "a leg's swing back and forth over one cycle: +1 to -1 during stance (phase 0 to duty), back to +1 smoothly during the swing", _numbers("leg_sweep", 2), _leg_sweep),
+        Function("leg_lift", "leg_lift(phase, duty)", "0 during stance, a bump rising to 1 in mid-swing and back to 0 at landing", _numbers("leg_lift", 2), _leg_lift),
         Function("step", "step(edge, x) -> number", "0 before the edge, 1 from it on (`step(2 s, t)`)", _edges("step", 2), lambda e, x: (x >= e).astype(float)),
         Function("smoothstep", "smoothstep(edge0, edge1, x) -> number", "0 before edge0, 1 after edge1, a smooth S between", _edges("smoothstep", 3), _smoothstep),
         Function("mix", "mix(a, b, fraction)", "a blended toward b: a at 0, b at 1 (numbers or vectors)", _mix, _mix_impl),
