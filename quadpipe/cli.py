@@ -223,6 +223,7 @@ class SchemaKind(str, Enum):
     """Files that have a JSON Schema."""
 
     controller = "controller"
+    scene = "scene"
 
 
 @app.command()
@@ -231,9 +232,14 @@ def schema(kind: Annotated[SchemaKind, typer.Argument(help="Which file format.")
 
     Example: quadpipe schema controller > controller.schema.json
     """
-    from quadpipe.controller_dsl import controller_json_schema
+    if kind is SchemaKind.controller:
+        from quadpipe.controller_dsl import controller_json_schema
 
-    typer.echo(json.dumps(controller_json_schema(), indent=2))
+        typer.echo(json.dumps(controller_json_schema(), indent=2))
+    else:
+        from quadpipe.scene import scene_json_schema
+
+        typer.echo(json.dumps(scene_json_schema(), indent=2))
 
 
 @app.command()
@@ -250,9 +256,21 @@ def controllers() -> None:
 
 
 @app.command()
+def scenes() -> None:
+    """List the built-in scenes with their descriptions.
+
+    Example: quadpipe scenes
+    """
+    from quadpipe.scene import available_scenes, load_scene
+
+    _print_table("Scenes", ["name", "description"], [[name, load_scene(name).description] for name in available_scenes()])
+
+
+@app.command()
 def simulate(
     animal: Annotated[str, typer.Option("--animal", "-a", help="Animal name or config file.")] = "dog",
     controller: Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")] = "rigid",
+    scene: Annotated[str, typer.Option("--scene", help="Scene name or file: terrain, props, throws, goals.")] = "flat",
     seconds: Annotated[float, typer.Option("--seconds", "-s", min=0.0, help="Simulated time.")] = 10.0,
     output: Annotated[Path, typer.Option("-o", "--output", help="Clip to write (.npz).")] = Path("run.npz"),
     metrics: Annotated[Optional[Path], typer.Option("--metrics", help="Metrics JSON (default: beside the clip).")] = None,
@@ -262,22 +280,22 @@ def simulate(
 ) -> None:
     """Simulate an animal under a controller and write the clip and its metrics.
 
-    Example: quadpipe simulate --animal dog --controller spine_walk --seconds 10 -o run.npz
+    Example: quadpipe simulate --animal dog --controller spine_walk --scene hill --seconds 10 -o run.npz
     """
     from quadpipe.atomic import write_text
     from quadpipe.exporters import export_clip
     from quadpipe.simulate import simulate as run_simulation
 
-    result = run_simulation(animal, controller, seconds=seconds, parameters=_parameters(parameters))
+    result = run_simulation(animal, controller, seconds=seconds, scene=scene, parameters=_parameters(parameters))
     export_clip(result.clip, output)
     metrics_path = metrics or output.with_suffix(".metrics.json")
     write_text(metrics_path, json.dumps(result.metrics, indent=2) + "\n")
-    figures = next(iter(result.metrics["animals"].values()))
-    typer.echo(
-        f"wrote {output} and {metrics_path}: {result.metrics['frames']} frames, "
-        f"{figures['distance_hp']:.2f} HP travelled, pelvis {figures['pelvis_height_min_hp']:.2f}-"
-        f"{figures['pelvis_height_max_hp']:.2f} HP{', FELL' if figures['fell'] else ''}"
-    )
+    typer.echo(f"wrote {output} and {metrics_path}: {result.metrics['frames']} frames")
+    for name, figures in result.metrics["animals"].items():
+        typer.echo(
+            f"  {name}: {figures['distance_hp']:.2f} HP travelled, pelvis {figures['pelvis_height_min_hp']:.2f}-"
+            f"{figures['pelvis_height_max_hp']:.2f} HP{', FELL' if figures['fell'] else ''}"
+        )
 
 
 def _parameters(pairs: list[str] | None) -> dict[str, str]:

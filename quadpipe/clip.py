@@ -7,7 +7,8 @@ to their format's conventions (glTF: +Y up; USD: the stage's up axis).
 
 Each bone has a *body frame*: origin at the bone's joint, axes aligned with the world in the
 rest pose. So a bone's rest (bind) transform is a pure translation to `rest_start`, and its
-shapes are given in that frame.
+shapes are given in that frame. The rest pose faces +x at the animal's start position whatever
+heading the animal starts with (the heading is part of the motion, not of the bind pose).
 """
 
 from __future__ import annotations

@@ -110,7 +110,7 @@ class Recorder:
     def _animal_track(self, index, placement, positions, rotations, contacts) -> AnimalTrack:
         bones = self._bones[index]
         skeleton = placement.built.animal.skeleton
-        offset = self.model.body_pos[bones[0]] - skeleton["pelvis"].start
+        offset = self.model.body_pos[bones[0]] - skeleton["pelvis"].start  # bind pose faces +x, see Clip
         shapes = [
             [geom_shape(self.model, g) for g in range(self.model.body_geomadr[b], self.model.body_geomadr[b] + self.model.body_geomnum[b])]
             for b in bones

@@ -487,6 +487,8 @@ def build_runtime(
     model: mujoco.MjModel,
     placements: Sequence[Placement],
     parameters: Mapping[str, Any] | None = None,
+    *,
+    scene_parameters: Mapping[str, Any] | None = None,
 ) -> ControllerRuntime:
     """Load a controller by name or path, compile it for the placed animals and bind it to a model.
 
@@ -494,8 +496,14 @@ def build_runtime(
         controller: a built-in controller name or a YAML path.
         model: the compiled world.
         placements: the animals it drives.
-        parameters: parameter overrides (values as written in YAML, e.g. goals from a scene).
+        parameters: parameter overrides (values as written in YAML); a name the controller
+            does not declare is an error.
+        scene_parameters: values a scene offers (its goals); only those the controller
+            declares are used, and `parameters` win over them.
     """
-    spec = load_controller(controller, parameters=dict(parameters or {}))
+    declared = load_controller(controller).parameters
+    offered = {name: value for name, value in (scene_parameters or {}).items() if name in declared}
+    overrides = offered | dict(parameters or {})
+    spec = load_controller(controller, parameters=overrides)
     scale = scale_for_animals([p.built.animal for p in placements])
     return ControllerRuntime(compile_controller(spec, scale), model, placements)

@@ -113,6 +113,9 @@ def check_health(run: Run, frame: int, far: float) -> None:
     )
 
 
+DEFAULT_SCENE = "flat"
+"""The scene used when none is named: flat ground, a goal ahead."""
+
 FALL_HEIGHT_HP = 0.4
 """An animal whose pelvis drops below this many pelvis heights has fallen."""
 
@@ -141,23 +144,29 @@ def simulate(
         animal: animal name or config path.
         controller: controller name or path (None: a passive ragdoll).
         seconds: simulated time.
-        scene: scene name or path (None: flat ground).
+        scene: scene name or path (None: `flat`).
         parameters: controller parameter overrides (YAML values: "2 HP", "[1, 0, 0]").
         extra_controllers: more `Controller`s run after the main one (tests push with these).
     """
     from quadpipe.animals import load_animal
     from quadpipe.model import build_animal
     from quadpipe.runtime import build_runtime
-    from quadpipe.world import build_world
+    from quadpipe.scene import build_scene, load_scene
 
     built = build_animal(load_animal(animal))
-    placements = [Placement(built.animal.name, built)]
-    model = build_world(placements).compile()
+    scene_spec = load_scene(scene or DEFAULT_SCENE)
+    setup = build_scene(scene_spec, built)
+    model = setup.spec.compile()
     data = mujoco.MjData(model)
-    runtime = build_runtime(controller, model, placements, parameters) if controller else None
+    runtime = (
+        build_runtime(controller, model, setup.placements, parameters, scene_parameters=setup.goal_parameters)
+        if controller
+        else None
+    )
     controllers = ([runtime] if runtime else []) + list(extra_controllers)
-    run = Run(model, data, placements, controllers)
-    clip = run_frames(run, seconds, {"controller": controller or "none", "scene": scene or "flat", "animal": built.animal.name})
+    run = Run(model, data, setup.placements, controllers, events=setup.events(model))
+    metadata = {"controller": controller or "none", "scene": scene_spec.name, "animal": built.animal.name}
+    clip = run_frames(run, seconds, metadata)
     return Result(clip, clip_metrics(clip), runtime)
 
 

@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from quadpipe import sizing
-from quadpipe.model import BuiltAnimal
+from quadpipe.model import FRICTION, BuiltAnimal
 
 WORLD_CONTYPE, WORLD_CONAFFINITY = 1, 3
 """Collision bits of world geoms: they touch each other (bit 1) and the animals (bit 2)."""
@@ -28,11 +28,28 @@ DROP_CLEARANCE_HP = 0.002
 
 @dataclass(frozen=True)
 class Placement:
-    """Where one animal starts: its instance name (the prefix of its elements) and ground position."""
+    """Where one animal starts: its instance name (the prefix of its elements), ground position
+    and heading (radians counter-clockwise from +x)."""
 
     name: str
     built: BuiltAnimal
     xy: tuple[float, float] = (0.0, 0.0)
+    heading: float = 0.0
+
+    def yaw(self) -> np.ndarray:
+        """The 3x3 rotation of the heading about +z."""
+        return yaw_matrix(self.heading)
+
+
+def yaw_matrix(heading: float) -> np.ndarray:
+    """Rotation matrix of a turn by `heading` radians about +z."""
+    c, s = np.cos(heading), np.sin(heading)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def yaw_quat(heading: float) -> list[float]:
+    """Quaternion (w, x, y, z) of a turn by `heading` radians about +z."""
+    return [float(np.cos(heading / 2)), 0.0, 0.0, float(np.sin(heading / 2))]
 
 
 def build_world(placements: Sequence[Placement], *, floor: bool = True) -> mujoco.MjSpec:
@@ -46,13 +63,15 @@ def build_world(placements: Sequence[Placement], *, floor: bool = True) -> mujoc
     spec.option.timestep = min((p.built.timestep for p in placements), default=sizing.FRAME_STEP_S)
     spec.option.iterations = sizing.SOLVER_ITERATIONS
     largest = max((p.built.animal.pelvis_height for p in placements), default=1.0)
-    _add_sky_and_light(spec, largest)
+    add_sky_and_light(spec, largest)
     if floor:
-        _add_floor(spec, largest)
+        add_floor(spec, largest)
     for placement in placements:
         lift = lowest_point_offset(placement.built.spec) + DROP_CLEARANCE_HP * placement.built.animal.pelvis_height
-        frame = spec.worldbody.add_frame(pos=[placement.xy[0], placement.xy[1], lift])
-        spec.attach(placement.built.spec.copy(), prefix=f"{placement.name}/", frame=frame)
+        frame = spec.worldbody.add_frame(pos=[placement.xy[0], placement.xy[1], lift], quat=yaw_quat(placement.heading))
+        animal_spec = placement.built.spec.copy()
+        animal_spec.option.timestep = spec.option.timestep
+        spec.attach(animal_spec, prefix=f"{placement.name}/", frame=frame)
     return spec
 
 
@@ -69,7 +88,8 @@ def lowest_point_offset(animal_spec: mujoco.MjSpec) -> float:
     return -float(lowest)
 
 
-def _add_floor(spec: mujoco.MjSpec, scale: float) -> None:
+def add_floor(spec: mujoco.MjSpec, scale: float, friction: float = FRICTION[0]) -> None:
+    """A checkered `floor` plane sized for animals of pelvis height `scale`."""
     checker = spec.add_texture(
         name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
         rgb1=[0.32, 0.36, 0.40], rgb2=[0.24, 0.27, 0.30], width=300, height=300,
@@ -77,11 +97,12 @@ def _add_floor(spec: mujoco.MjSpec, scale: float) -> None:
     spec.add_material(name="floor", textures=["", "grid"], texrepeat=[1.0 / scale, 1.0 / scale], texuniform=True, reflectance=0.1)
     spec.worldbody.add_geom(
         name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[FLOOR_HALF_SIZE_HP * scale] * 2 + [0.1],
-        material="floor", contype=WORLD_CONTYPE, conaffinity=WORLD_CONAFFINITY,
+        material="floor", contype=WORLD_CONTYPE, conaffinity=WORLD_CONAFFINITY, friction=[friction, *FRICTION[1:]],
     )
 
 
-def _add_sky_and_light(spec: mujoco.MjSpec, scale: float) -> None:
+def add_sky_and_light(spec: mujoco.MjSpec, scale: float) -> None:
+    """A gradient sky and a sun (directional light with shadows) high above."""
     spec.add_texture(
         name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
         rgb1=[0.55, 0.7, 0.85], rgb2=[0.1, 0.12, 0.15], width=256, height=256,

@@ -127,11 +127,11 @@ def validate_document(model: type[BaseModelT], doc: YamlDocument) -> BaseModelT:
     try:
         return model.model_validate(doc.data)
     except pydantic.ValidationError as exc:
-        errors = _without_missing_explained_by_typos(exc.errors())
+        errors = without_missing_explained_by_typos(exc.errors())
         raise QuadpipeError([_issue_from_pydantic(err, model, doc) for err in errors]) from None
 
 
-def _without_missing_explained_by_typos(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def without_missing_explained_by_typos(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Drop "missing key X" when a misspelt key beside it is close to X: one typo, one message."""
     unknown = {tuple(e["loc"]) for e in errors if e["type"] == "extra_forbidden"}
 

@@ -48,3 +48,49 @@ def test_every_foot_steps_during_the_walk():
     liftoffs = (np.diff(contacts, axis=0) == -1).sum(axis=0)
     seconds = (len(contacts) - 1) / 30.0
     assert np.all(liftoffs >= 0.5 * seconds / (38 / 30))  # at least half the cycles show a step
+
+
+HILL_SECONDS = 30.0
+HILL_END_HP = 4 + 2 * 0.5 / np.tan(np.radians(12)) + 3  # start + up and down ramps + plateau (configs/scenes/hill.yaml)
+THROW_TIMES_S = (3.0, 6.0, 9.0)  # configs/scenes/throws.yaml
+RECOVERY_S = 3.0
+
+
+@pytest.mark.slow
+def test_on_the_hill_it_climbs_and_descends_without_tumbling():
+    result = simulate("dog", "spine_walk", seconds=HILL_SECONDS, scene="hill")
+    track = result.clip.animals[0]
+    hp = track.pelvis_height
+    pelvis = track.positions[:, 0]
+    forward = (pelvis[:, 0] - pelvis[0, 0]) / hp
+    on_top = np.flatnonzero(pelvis[:, 2] > pelvis[0, 2] + 0.4 * hp)
+    assert on_top.size > 0, "it never got onto the plateau"
+    assert forward[-1] > HILL_END_HP, "it did not get past the far foot of the hill"
+    assert abs(pelvis[-1, 2] - pelvis[0, 2]) < 0.15 * hp  # back down on the ground
+    assert not result.metrics["animals"]["dog"]["fell"]
+    assert up_axis_tilt_deg(track.rotations[:, R.ROLES.index("thorax")]).max() < 45.0
+
+
+@pytest.mark.slow
+def test_hit_by_thrown_boxes_it_recovers_and_resumes_toward_the_goal():
+    result = simulate("dog", "spine_walk", seconds=15.0, scene="throws")
+    clip = result.clip
+    track = clip.animals[0]
+    hp = track.pelvis_height
+    thorax = track.positions[:, R.ROLES.index("thorax")]
+    tilt = up_axis_tilt_deg(track.rotations[:, R.ROLES.index("thorax")])
+    boxes = [prop for prop in clip.props if prop.name.startswith("thrown")]
+    assert len(boxes) == len(THROW_TIMES_S)
+    for box, throw_time in zip(boxes, THROW_TIMES_S):
+        frame = round(throw_time * clip.fps)
+        later = slice(frame, frame + clip.fps)
+        miss = np.linalg.norm(box.positions[later] - thorax[later], axis=1).min()
+        assert miss < 0.5 * hp, f"the box thrown at {throw_time} s missed"
+        recovered = frame + round(RECOVERY_S * clip.fps)
+        assert tilt[recovered] < 25.0 and track.positions[recovered, 0, 2] > 0.85 * hp
+    goal = np.array([20 * hp, 0.0])
+    start = round((THROW_TIMES_S[-1] + RECOVERY_S) * clip.fps)
+    before = np.linalg.norm(goal - track.positions[start, 0, :2])
+    after = np.linalg.norm(goal - track.positions[-1, 0, :2])
+    assert before - after > 1.0 * hp  # heading for the goal again
+    assert not result.metrics["animals"]["dog"]["fell"]
