@@ -266,36 +266,102 @@ def scenes() -> None:
     _print_table("Scenes", ["name", "description"], [[name, load_scene(name).description] for name in available_scenes()])
 
 
+AnimalOpt = Annotated[str, typer.Option("--animal", "-a", help="Animal name or config file.")]
+ControllerOpt = Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")]
+SceneOpt = Annotated[str, typer.Option("--scene", help="Scene name or file: terrain, props, throws, goals.")]
+SecondsOpt = Annotated[float, typer.Option("--seconds", "-s", min=0.0, help="Simulated time.")]
+SetOpt = Annotated[Optional[list[str]], typer.Option("--set", help="Override a controller parameter: NAME=VALUE (repeatable).")]
+MetricsOpt = Annotated[Optional[Path], typer.Option("--metrics", help="Metrics JSON (default: beside the first output).")]
+
+
 @app.command()
 def simulate(
-    animal: Annotated[str, typer.Option("--animal", "-a", help="Animal name or config file.")] = "dog",
-    controller: Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")] = "rigid",
-    scene: Annotated[str, typer.Option("--scene", help="Scene name or file: terrain, props, throws, goals.")] = "flat",
-    seconds: Annotated[float, typer.Option("--seconds", "-s", min=0.0, help="Simulated time.")] = 10.0,
-    output: Annotated[Path, typer.Option("-o", "--output", help="Clip to write (.npz).")] = Path("run.npz"),
-    metrics: Annotated[Optional[Path], typer.Option("--metrics", help="Metrics JSON (default: beside the clip).")] = None,
-    parameters: Annotated[
-        Optional[list[str]], typer.Option("--set", help="Override a controller parameter: NAME=VALUE (repeatable).")
-    ] = None,
+    animal: AnimalOpt = "dog",
+    controller: ControllerOpt = "rigid",
+    scene: SceneOpt = "flat",
+    seconds: SecondsOpt = 10.0,
+    output: Annotated[Path, typer.Option("-o", "--output", help="Clip to write (.npz, or any bake format).")] = Path("run.npz"),
+    metrics: MetricsOpt = None,
+    parameters: SetOpt = None,
 ) -> None:
     """Simulate an animal under a controller and write the clip and its metrics.
 
     Example: quadpipe simulate --animal dog --controller spine_walk --scene hill --seconds 10 -o run.npz
     """
+    _run_and_write(animal, controller, scene, seconds, [output], metrics, parameters)
+
+
+@app.command()
+def bake(
+    outputs: Annotated[list[Path], typer.Option("-o", "--output", help="File to write; repeat for several formats.")],
+    animal: AnimalOpt = "dog",
+    controller: ControllerOpt = "spine_walk",
+    scene: SceneOpt = "flat",
+    seconds: SecondsOpt = 10.0,
+    metrics: MetricsOpt = None,
+    parameters: SetOpt = None,
+) -> None:
+    """Simulate once and bake the motion into every requested file; the suffix picks the format.
+
+    Formats: .glb .gltf (glTF 2.0), .usda .usdc .usdz (OpenUSD), .bvh, .npz (raw clip).
+    Example: quadpipe bake --animal horse --controller spine_walk --scene hill -o horse.glb -o horse.usdc
+    """
+    _run_and_write(animal, controller, scene, seconds, outputs, metrics, parameters)
+
+
+def _run_and_write(
+    animal: str, controller: str, scene: str, seconds: float, outputs: list[Path], metrics: Path | None, parameters: list[str] | None
+) -> None:
     from quadpipe.atomic import write_text
-    from quadpipe.exporters import export_clip
+    from quadpipe.exporters import check_output_path, export_clip
     from quadpipe.simulate import simulate as run_simulation
 
+    for output in outputs:
+        check_output_path(output)
     result = run_simulation(animal, controller, seconds=seconds, scene=scene, parameters=_parameters(parameters))
-    export_clip(result.clip, output)
-    metrics_path = metrics or output.with_suffix(".metrics.json")
+    for output in outputs:
+        export_clip(result.clip, output)
+    metrics_path = metrics or outputs[0].with_suffix(".metrics.json")
     write_text(metrics_path, json.dumps(result.metrics, indent=2) + "\n")
-    typer.echo(f"wrote {output} and {metrics_path}: {result.metrics['frames']} frames")
+    typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
     for name, figures in result.metrics["animals"].items():
         typer.echo(
             f"  {name}: {figures['distance_hp']:.2f} HP travelled, pelvis {figures['pelvis_height_min_hp']:.2f}-"
             f"{figures['pelvis_height_max_hp']:.2f} HP{', FELL' if figures['fell'] else ''}"
         )
+
+
+@app.command()
+def render(
+    outputs: Annotated[list[Path], typer.Option("-o", "--output", help="Video or picture: .mp4, .gif, or .png (a contact sheet).")],
+    clip: Annotated[Optional[Path], typer.Argument(help="A baked clip (.npz); without it, simulate first.")] = None,
+    animal: AnimalOpt = "dog",
+    controller: ControllerOpt = "spine_walk",
+    scene: SceneOpt = "flat",
+    seconds: SecondsOpt = 5.0,
+    parameters: SetOpt = None,
+    width: Annotated[int, typer.Option(help="Frame width in pixels.")] = 640,
+    height: Annotated[int, typer.Option(help="Frame height in pixels.")] = 480,
+    overlays: Annotated[str, typer.Option(help="Overlays to draw: contacts,trail or none.")] = "contacts,trail",
+) -> None:
+    """Render a clip headless (MuJoCo's renderer) to MP4, GIF, or a PNG contact sheet.
+
+    Example: quadpipe render run.npz -o run.mp4 -o sheet.png   |   quadpipe render --controller spine_walk --scene hill -o walk.mp4
+    """
+    from quadpipe.render import builtin_overlays, render_clip
+
+    if clip is not None:
+        from quadpipe.exporters.npz import load_clip
+
+        baked = load_clip(clip)
+    else:
+        from quadpipe.simulate import simulate as run_simulation
+
+        baked = run_simulation(animal, controller, seconds=seconds, scene=scene, parameters=_parameters(parameters)).clip
+    names = [] if overlays == "none" else [name.strip() for name in overlays.split(",") if name.strip()]
+    for output in outputs:
+        render_clip(baked, output, width=width, height=height, overlays=builtin_overlays(baked, names))
+        typer.echo(f"wrote {output}")
 
 
 def _parameters(pairs: list[str] | None) -> dict[str, str]:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import inspect
+import os
 from dataclasses import dataclass
 from importlib import import_module
 from pathlib import Path
@@ -98,6 +99,23 @@ def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False) ->
             hint="check that the folder exists and is writable, and that the disk is not full",
         ) from None
     return path
+
+
+def check_output_path(path: str | Path) -> None:
+    """Fail early, before a long simulation, if `path` cannot be written as a clip.
+
+    Raises:
+        QuadpipeError: `unknown-format`, `format-unavailable`, or `unwritable-output` (a
+            folder, or a file in a folder that does not exist or is not writable).
+    """
+    path = Path(path)
+    _writer_for(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir() or not folder.is_dir() or not os.access(folder, os.W_OK):
+        problem = "is a folder" if path.is_dir() else "is in a folder that does not exist or is not writable"
+        raise QuadpipeError.single(
+            "unwritable-output", f"{str(path)!r} {problem}", file=str(path), hint="check the output path"
+        )
 
 
 def _writer_for(path: Path) -> tuple[ExportFormat, Exporter]:
