@@ -202,12 +202,9 @@ def test_shipped_controllers_point_editors_at_the_schema(name: str) -> None:
 def test_rigid_has_the_thesis_segments_in_quadpipe_axes() -> None:
     spec = load_controller("rigid")
     directions = {name: element.direction.vector for name, element in spec.elements.items()}
-    assert directions == {
-        "tail": [-1, 0, -1],
-        "spine": [1, 0, 0],
-        "neck": [1, 0, 1],
-        **{f"{leg}_leg": [0, 0, -1] for leg in R.LEGS},
-    }
+    assert directions == {"tail": [-1, 0, -1], "spine": [1, 0, 0], "neck": [1, 0, 1], **{f"{leg}_leg": None for leg in R.LEGS}}
+    tops = {leg: f"{leg}_scapula.start" if leg.endswith("f") else f"{leg}_hip.start" for leg in R.LEGS}
+    assert {leg: spec.elements[f"{leg}_leg"].direction.balance for leg in R.LEGS} == tops
     assert (spec.elements["lf_leg"].from_, spec.elements["lf_leg"].to) == ("lf_scapula.start", "lf_fpha1.end")
     assert (spec.elements["rh_leg"].from_, spec.elements["rh_leg"].to) == ("rh_hip.start", "rh_hpha2.end")
 
@@ -216,7 +213,7 @@ def test_length2_strength_is_factor_times_rest_length_squared(two_animals: Scale
     compiled = compile_controller(load_controller("rigid"), two_animals)
     rest = two_animals.rest_points
     distance = np.linalg.norm(rest["lh_hpha2.end"] - rest["lh_hip.start"], axis=-1)
-    expected = 0.4 * two_animals.bw / two_animals.hp**2 * distance**2
+    expected = 1.2 * two_animals.bw / two_animals.hp**2 * distance**2
     assert compiled.elements["lh_leg"].value("strength").constant == pytest.approx(expected)
 
 
@@ -226,7 +223,7 @@ def test_strengths_scale_with_real_animals() -> None:
     scale = scale_for_animals([load_animal("dog"), load_animal("rat")])
     leg = compile_controller(load_controller("rigid"), scale).elements["lh_leg"]
     length = np.linalg.norm(scale.rest_points["lh_hpha2.end"] - scale.rest_points["lh_hip.start"], axis=-1)
-    assert leg.value("strength").constant / scale.bw == pytest.approx(0.4 * (length / scale.hp) ** 2)
+    assert leg.value("strength").constant / scale.bw == pytest.approx(1.2 * (length / scale.hp) ** 2)
     assert scale.hp == pytest.approx([DOG_HP, RAT_HP], rel=1e-3)
 
 
@@ -237,7 +234,9 @@ def test_point_target_overrides_directions_and_keeps_strengths() -> None:
     assert spec.elements["neck"].direction.vector is None
     assert spec.elements["lf_leg"].direction.balance == "lf_scapula.start"
     assert spec.elements["lh_leg"].direction.toward == "target"
-    assert spec.elements["neck"].strength.length2 == "segment_gain"
+    assert spec.elements["neck"].strength.force == "neck_force"
+    assert spec.elements["lh_leg"].strength.length2 == "reach_gain"
+    assert spec.elements["lh_leg"].direction.balance is None
 
 
 def test_postures_states_set_the_thesis_leg_ratios(two_animals: Scale) -> None:

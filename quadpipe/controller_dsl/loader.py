@@ -88,11 +88,28 @@ class Origin:
     def locate(self, path: Iterable[Any] = (), key: bool = False) -> Location:
         """Position of a key path of the element, in the latest layer that sets it."""
         path = tuple(path)
+        layers = self.layers[self._last_replacing(path):]
         for size in range(len(path), -1, -1):
-            for layer in reversed(self.layers):
+            for layer in reversed(layers):
                 if layer.holds(path[:size]):
                     return layer.locate(path[:size], key and size == len(path))
         return self.layers[0].locate((), key)
+
+    def _last_replacing(self, path: tuple[Any, ...]) -> int:
+        """Index of the last layer that replaced a part of `path` by a plain value, 0 if none.
+
+        Keys that earlier layers had below that part are gone, so their positions must not be
+        reported (`strength: 20 deg` over a parent's `strength: {force: ...}`).
+        """
+        for index in range(len(self.layers) - 1, 0, -1):
+            node = self.layers[index].raw
+            for part in path[:-1]:
+                if not isinstance(node, dict) or part not in node:
+                    break
+                node = node[part]
+                if not isinstance(node, (dict, list)):
+                    return index
+        return 0
 
     def sublayer(self, path: tuple[Any, ...], raw: Any) -> Layer:
         """A layer for the mapping `raw` found at `path` inside this element (a state's patch)."""
