@@ -253,29 +253,38 @@ def test_postures_states_set_the_thesis_leg_ratios(two_animals: Scale) -> None:
     assert hold == [3.0, 3.0, 3.0]
 
 
+
+
 def test_leash_legs_switch_between_support_and_seek() -> None:
     spec = load_controller("leash")
-    assert {name: sensor.at for name, sensor in spec.elements_of_type("sensor").items()} == {
+    assert {name: spec.elements[name].at for name in ("lf_balance", "rf_balance", "lh_balance", "rh_balance")} == {
         "lf_balance": "lf_scapula.start",
         "rf_balance": "rf_scapula.start",
         "lh_balance": "lh_hip.start",
         "rh_balance": "rh_hip.start",
     }
-    machine = spec.machines["rh_gait"]
-    assert machine.owned == ("rh_seek",)
+    machine = spec.machines["gait"]
+    assert list(machine.states) == ["support"] + [f"{leg}_{state}" for leg in R.LEGS for state in ("seek", "land")]
+    assert {"rh_seek", "rh_stance_aim", "rh_length"} <= set(machine.owned)
     assert spec.elements["rh_seek"].enabled is False
-    assert machine.states["seek"].elements["rh_seek"].enabled is True
-    assert machine.transitions[1].when == "angle(rh.foot - rh.top, rh_balance) < support_angle and contact(rh)"
+    seeking = machine.states["rh_seek"].elements
+    assert seeking["rh_seek"].enabled is True and seeking["rh_stance_aim"].enabled is False
+    assert seeking["rh_length"].elastic.ratio == "lift_ratio"
+    assert "rh_length" not in machine.states["rh_land"].elements
+    assert machine.transitions[3].when == "rh_tilt > seek_angle and rh_rank >= most_tilted"
     assert "pelvis" not in spec.elements["trunk_springs"].joints
     assert spec.elements["toe_springs"].joints == [f"{leg}_{toe}" for leg in R.LEGS for toe in (("fpha0", "fpha1") if leg.endswith("f") else ("hpha0", "hpha1", "hpha2"))]
 
 
-def test_leg_by_leg_removes_the_leash_and_replaces_the_leg_machines() -> None:
+def test_leg_by_leg_removes_the_leash_and_pushes_while_supporting() -> None:
     spec = load_controller("leg_by_leg")
     assert "leash" not in spec.elements
-    assert list(spec.machines["lf_gait"].states) == ["push", "seek"]
-    assert spec.elements["lf_push"].reaction == {"lf_wrist.start": 1}
-    assert spec.elements["rh_push"].reaction == {"rh_ankle.start": 1}
+    assert spec.elements["lf_stance_push"].reaction == {"lf_wrist.start": 1}
+    assert spec.elements["rh_stance_push"].reaction == {"rh_ankle.start": 1}
+    machine = spec.machines["gait"]
+    assert "lf_stance_push" in machine.owned
+    assert machine.states["lf_seek"].elements["lf_stance_push"].enabled is False
+    assert "lf_stance_push" not in machine.states["support"].elements
 
 
 def test_spine_walk_pedals_rudder_and_slope(two_animals: Scale) -> None:
