@@ -65,12 +65,20 @@ class Recorder:
         self._positions: list[np.ndarray] = []
         self._rotations: list[np.ndarray] = []
         self._contacts: list[np.ndarray] = []
+        self._extras: dict[str, list[np.ndarray]] = {}
 
-    def capture(self, data: mujoco.MjData) -> None:
-        """Record the current state as the next frame."""
+    def capture(self, data: mujoco.MjData, extras: dict[str, np.ndarray] | None = None) -> None:
+        """Record the current state as the next frame.
+
+        Args:
+            data: the simulation state.
+            extras: per-frame values to keep in the clip's `sensors` (same keys every frame).
+        """
         self._positions.append(data.xpos.copy())
         self._rotations.append(data.xquat.copy())
         self._contacts.append(self._feet_down(data))
+        for key, value in (extras or {}).items():
+            self._extras.setdefault(key, []).append(np.array(value, dtype=float))
 
     def _feet_down(self, data: mujoco.MjData) -> np.ndarray:
         down = np.zeros(len(self.placements) * len(R.LEGS), dtype=bool)
@@ -105,7 +113,8 @@ class Recorder:
             for geom in range(self.model.ngeom)
             if self.model.geom_bodyid[geom] == 0 and int(self.model.geom_type[geom]) in _SHAPE_KINDS
         ]
-        return Clip(self.fps, animals, props, terrain, metadata=dict(metadata or {}))
+        sensors = {key: np.array(values) for key, values in self._extras.items()}
+        return Clip(self.fps, animals, props, terrain, sensors=sensors, metadata=dict(metadata or {}))
 
     def _animal_track(self, index, placement, positions, rotations, contacts) -> AnimalTrack:
         bones = self._bones[index]

@@ -328,6 +328,25 @@ class ControllerRuntime:
                 forms.append((form, mask))
         return forms
 
+    def frame_values(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
+        """Values recorded once per frame into the clip, per animal: every sensor
+        (`<sensor>:<animal>`), the net controller force (`controller_force:<animal>`, N) and
+        the power of the controller's forces (`controller_power:<animal>`, W: sum of force x
+        velocity of the point it acts on, at the last step)."""
+        values = {}
+        forces = self.last
+        velocities = self._velocity_at(data, forces.bodies, forces.points) if len(forces.bodies) else np.zeros((0, 3))
+        power = np.einsum("ki,ki->k", forces.forces, velocities)
+        env = _StepEnv(self, data)
+        sensors = {name: self._smoothed[name] if name in self._smoothed else self._sensor(name, env) for name in self._sensors}
+        for index, placement in enumerate(self.placements):
+            mine = forces.animals == index
+            values[f"controller_force:{placement.name}"] = forces.forces[mine].sum(axis=0)
+            values[f"controller_power:{placement.name}"] = np.array(power[mine].sum())
+            for name, value in sensors.items():
+                values[f"{name}:{placement.name}"] = value[index]
+        return values
+
     def state_of(self, machine: str) -> list[str]:
         """The current state of a machine, per animal."""
         names = self._state_names[machine]

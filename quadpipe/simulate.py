@@ -25,7 +25,11 @@ FAR_AWAY_HP = 1000.0
 
 
 class Controller(Protocol):
-    """What the loop needs from a controller: a name, and forces applied before each step."""
+    """What the loop needs from a controller: a name, and forces applied before each step.
+
+    A controller may also offer `frame_values(data) -> dict[str, array]`: values recorded into
+    the clip's `sensors` once per frame.
+    """
 
     name: str
 
@@ -84,13 +88,23 @@ def run_frames(run: Run, seconds: float, metadata: dict[str, str] | None = None)
     frames = round(seconds * sizing.FRAME_RATE)
     far = FAR_AWAY_HP * max(p.built.animal.pelvis_height for p in run.placements)
     mujoco.mj_forward(run.model, run.data)
-    recorder.capture(run.data)
+    recorder.capture(run.data, frame_values(run))
     for frame in range(1, frames + 1):
         for _ in range(run.steps_per_frame):
             run.step()
         check_health(run, frame, far)
-        recorder.capture(run.data)
+        recorder.capture(run.data, frame_values(run))
     return recorder.clip({"status": "ok", **(metadata or {})})
+
+
+def frame_values(run: Run) -> dict[str, np.ndarray]:
+    """The per-frame values the controllers offer (sensors, injected force and power)."""
+    values: dict[str, np.ndarray] = {}
+    for controller in run.controllers:
+        offer = getattr(controller, "frame_values", None)
+        if offer is not None:
+            values.update(offer(run.data))
+    return values
 
 
 def check_health(run: Run, frame: int, far: float) -> None:
@@ -170,6 +184,21 @@ def simulate(
     return Result(clip, clip_metrics(clip), runtime)
 
 
+def _injected(clip: Clip, track) -> dict:
+    """Net external force and work the controller injected (couples cancel; pulls do not)."""
+    force = clip.sensors.get(f"controller_force:{track.name}")
+    power = clip.sensors.get(f"controller_power:{track.name}")
+    if force is None or power is None:
+        return {}
+    weight = track.mass_kg * sizing.GRAVITY
+    return {
+        "net_force_mean_bw": float(np.linalg.norm(force, axis=1).mean() / weight),
+        "net_force_max_bw": float(np.linalg.norm(force, axis=1).max() / weight),
+        "work_j": float(power[1:].sum() / clip.fps),
+        "work_j_per_kg_m": float(power[1:].sum() / clip.fps / track.mass_kg / max(np.linalg.norm(track.positions[-1, 0, :2] - track.positions[0, 0, :2]), 1e-9)),
+    }
+
+
 def clip_metrics(clip: Clip) -> dict:
     """Per-animal figures of a clip: distance, speed, pelvis heights, falls (lengths also in HP)."""
     animals = {}
@@ -188,5 +217,6 @@ def clip_metrics(clip: Clip) -> dict:
             "pelvis_height_max_hp": float(heights.max() / hp),
             "fell": bool(fallen.any()),
             "first_fall_s": float(np.argmax(fallen) / clip.fps) if fallen.any() else None,
+            **_injected(clip, track),
         }
     return {"duration_s": clip.duration, "frames": clip.frame_count, "animals": animals}

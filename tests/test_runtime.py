@@ -89,3 +89,16 @@ def _quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     result = np.zeros(4)
     mujoco.mju_mulQuat(result, a, b)
     return result
+
+
+def test_the_clip_carries_sensors_and_the_metrics_the_injected_force():
+    pulled = simulate("dog", str(RUNTIME / "side_pull.yaml"), seconds=3.0)
+    walking = simulate("dog", "spine_walk", seconds=2.0)
+    frames = walking.clip.frame_count
+    assert walking.clip.sensors["ground_normal:dog"].shape == (frames, 3)
+    assert walking.clip.sensors["controller_force:dog"].shape == (frames, 3)
+    up = walking.clip.sensors["ground_normal:dog"][-1]
+    assert up == pytest.approx([0.0, 0.0, 1.0], abs=0.05)  # flat ground
+    assert walking.metrics["animals"]["dog"]["net_force_max_bw"] < 1e-9  # couples only
+    assert pulled.metrics["animals"]["dog"]["net_force_max_bw"] == pytest.approx(2.0, rel=0.01)  # the 2 bw pull
+    assert walking.metrics["animals"]["dog"]["work_j"] > 0
