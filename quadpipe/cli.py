@@ -364,6 +364,33 @@ def render(
         typer.echo(f"wrote {output}")
 
 
+@app.command()
+def analyze(
+    clip: Annotated[Path, typer.Argument(help="A baked clip (.npz) from `quadpipe simulate` or `bake`.")],
+    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="Write the report as JSON.")] = None,
+    diagram: Annotated[Optional[Path], typer.Option("--diagram", help="Draw a footfall (Hildebrand) diagram (.png).")] = None,
+    animal: Annotated[Optional[str], typer.Option("--animal", "-a", help="Analyse only this animal of the clip.")] = None,
+) -> None:
+    """Gait analysis of a clip: footfalls, duty factors, phases, stride, speed, Froude number, gait name.
+
+    Example: quadpipe analyze run.npz -o report.json --diagram footfalls.png
+    """
+    from quadpipe.analysis import analyze_clip, check_diagram_path, draw_footfall_diagram, format_report
+    from quadpipe.atomic import write_text
+    from quadpipe.exporters.npz import load_clip
+
+    if diagram is not None:
+        check_diagram_path(diagram)
+    report = analyze_clip(load_clip(clip), animal)
+    typer.echo(format_report(report))
+    if output is not None:
+        write_text(output, json.dumps(report.to_dict(), indent=2, allow_nan=False) + "\n")
+        typer.echo(f"wrote {output}")
+    if diagram is not None:
+        draw_footfall_diagram(report, diagram)
+        typer.echo(f"wrote {diagram}")
+
+
 def _parameters(pairs: list[str] | None) -> dict[str, str]:
     from quadpipe.errors import QuadpipeError
 

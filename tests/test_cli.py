@@ -111,3 +111,14 @@ def test_roles_guesses_a_bvh_and_writes_a_role_map_that_loads(cli, tmp_path):
     assert inspected.returncode == 0, inspected.stderr
     bones = {bone["role"]: bone["name"] for bone in json.loads(inspected.stdout)["bones"]}
     assert bones["lh_hip"] == "Bip01 L Thigh" and bones["pelvis"] == "Bip01 Pelvis"
+
+
+def test_analyze_recognises_a_simulated_walk_and_draws_its_footfalls(cli, tmp_path):
+    clip = tmp_path / "walk.npz"
+    assert cli("simulate", "-c", "spine_walk", "-s", "6", "-o", str(clip)).returncode == 0
+    report, diagram = tmp_path / "report.json", tmp_path / "footfalls.png"
+    result = cli("analyze", str(clip), "-o", str(report), "--diagram", str(diagram))
+    assert result.returncode == 0, result.stderr
+    gait = json.loads(report.read_text())["animals"]["dog"]["gait"]
+    assert gait["name"] == "walk"
+    assert diagram.stat().st_size > 1000
