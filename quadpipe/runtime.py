@@ -90,7 +90,19 @@ class ControllerRuntime:
         self.gravity = np.array(model.opt.gravity)
         self._bodies = np.array([[model.body(f"{p.name}/{role}").id for role in R.ROLES] for p in placements])
         self._offsets = self._point_offsets()
+        self._point_index = {point: index for index, point in enumerate(self._offsets)}
+        self._point_bodies = np.stack(
+            [self._bodies[:, R.ROLES.index(point.partition(".")[0])] for point in self._offsets], axis=1
+        )
+        self._point_offsets = np.stack(list(self._offsets.values()), axis=1)
         self._feet = self._foot_geoms()
+        self._animal_of_geom = np.full(model.ngeom, -1)
+        self._leg_of_geom = np.full(model.ngeom, -1)
+        for leg_index, leg in enumerate(R.LEGS):
+            for animal, geoms in enumerate(self._feet[leg]):
+                self._leg_of_geom[geoms] = leg_index
+        for animal, row in enumerate(self._bodies):
+            self._animal_of_geom[np.isin(model.geom_bodyid, row)] = animal
         self._animal_of_body = np.full(model.nbody, -1)
         for index, row in enumerate(self._bodies):
             self._animal_of_body[row] = index
@@ -103,6 +115,7 @@ class ControllerRuntime:
             self._state[name][:] = self._state_names[name].index(machine.initial)
         self._time_in_state = {name: np.zeros(self.n) for name in compiled.machines}
         self._owner = {element: name for name, m in compiled.machines.items() for element in m.owned}
+        self._state_masks: dict[str, list[tuple[str, np.ndarray]]] = {}
         self._dofs = {}
         self._base_damping = model.dof_damping.copy()
         self._damping = np.zeros(model.nv)
@@ -160,9 +173,13 @@ class ControllerRuntime:
         kind, _, rest = key.partition(":")
         data = env.data
         if kind == "point":
-            return self.point(data, rest)
+            return env["all:points"][:, self._point_index[rest]]
         if kind == "velocity":
-            return self.point_velocity(data, rest)
+            return env["all:velocities"][:, self._point_index[rest]]
+        if key == "all:points":
+            return self._all_points(data)
+        if key == "all:velocities":
+            return self._all_velocities(data, env["all:points"])
         if key == X.HEADING_FRAME_KEY:
             return self.heading_frames(data)
         if kind == "contact":
@@ -176,6 +193,18 @@ class ControllerRuntime:
         if key == "t":
             return np.full(self.n, data.time)
         raise KeyError(f"the runtime does not provide {key!r}")
+
+    def _all_points(self, data: mujoco.MjData) -> np.ndarray:
+        """World positions of every canonical point of every animal, (n, P, 3)."""
+        bodies = self._point_bodies
+        rotations = data.xmat[bodies].reshape(self.n, -1, 3, 3)
+        return data.xpos[bodies] + np.einsum("npij,npj->npi", rotations, self._point_offsets)
+
+    def _all_velocities(self, data: mujoco.MjData, points: np.ndarray) -> np.ndarray:
+        """World linear velocities of every canonical point of every animal, (n, P, 3)."""
+        bodies = self._point_bodies
+        roots = data.subtree_com[self.model.body_rootid[bodies]]
+        return data.cvel[bodies, 3:] + _cross(data.cvel[bodies, :3], points - roots)
 
     def point(self, data: mujoco.MjData, point: str) -> np.ndarray:
         """World position of a canonical body point for every animal, (n, 3)."""
@@ -208,33 +237,38 @@ class ControllerRuntime:
         left = _cross(UP, forward)
         return np.stack([forward, left, np.broadcast_to(UP, forward.shape)], axis=-1)
 
+    def _foot_contacts(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Contacts between a foot and anything but its own animal: (animal, leg, normal up, count).
+
+        Each row is one such contact; the normal points from the other geom into the foot.
+        """
+        g1, g2 = data.contact.geom1[: data.ncon], data.contact.geom2[: data.ncon]
+        normals = data.contact.frame[: data.ncon, :3]
+        rows = []
+        for foot, other, sign in ((g1, g2, -1.0), (g2, g1, 1.0)):
+            animal = self._animal_of_geom[foot]
+            keep = (self._leg_of_geom[foot] >= 0) & (self._animal_of_geom[other] != animal)
+            rows.append((animal[keep], self._leg_of_geom[foot][keep], sign * normals[keep]))
+        animals, legs, ups = (np.concatenate(parts) for parts in zip(*rows))
+        return animals, legs, ups, np.array(len(animals))
+
     def foot_contact(self, data: mujoco.MjData, leg: str) -> np.ndarray:
-        """Whether each animal's foot `leg` touches anything but itself, (n,) bool."""
+        """Whether each animal's foot `leg` touches anything but its own body, (n,) bool."""
         down = np.zeros(self.n, dtype=bool)
         if data.ncon:
-            geoms = self._feet[leg]
-            g1, g2 = data.contact.geom1[: data.ncon], data.contact.geom2[: data.ncon]
-            for animal in range(self.n):
-                down[animal] = np.isin(g1, geoms[animal]).any() or np.isin(g2, geoms[animal]).any()
+            animals, legs, _, _ = self._foot_contacts(data)
+            down[animals[legs == R.LEGS.index(leg)]] = True
         return down
 
     def _ground_normal(self, data: mujoco.MjData, legs: Sequence[str]) -> np.ndarray:
         """Mean contact normal under the given feet, pointing up from the ground; up if none."""
         normals = np.zeros((self.n, 3))
         if data.ncon:
-            g1, g2 = data.contact.geom1[: data.ncon], data.contact.geom2[: data.ncon]
-            frames = data.contact.frame[: data.ncon, :3]
-            for animal in range(self.n):
-                feet = np.concatenate([self._feet[leg][animal] for leg in legs])
-                as_second = np.isin(g2, feet) & ~np.isin(g1, self._bodies_geoms(animal))
-                as_first = np.isin(g1, feet) & ~np.isin(g2, self._bodies_geoms(animal))
-                normals[animal] = frames[as_second].sum(axis=0) - frames[as_first].sum(axis=0)
+            animals, feet, ups, _ = self._foot_contacts(data)
+            chosen = np.isin(feet, [R.LEGS.index(leg) for leg in legs])
+            np.add.at(normals, animals[chosen], ups[chosen])
         norm = np.linalg.norm(normals, axis=1, keepdims=True)
         return np.where(norm > 1e-9, normals / np.maximum(norm, 1e-12), UP)
-
-    def _bodies_geoms(self, animal: int) -> np.ndarray:
-        geom_body = self.model.geom_bodyid
-        return np.flatnonzero(np.isin(geom_body, self._bodies[animal]))
 
     def _height(self, data: mujoco.MjData, points: np.ndarray) -> np.ndarray:
         """Height of points above the terrain or prop right below them."""
@@ -311,6 +345,7 @@ class ControllerRuntime:
                     self._time_in_state[name][fires] = 0.0
                     switched |= fires
             env[f"time_in_state:{name}"] = self._time_in_state[name]
+            self._state_masks[name] = [(state_name, state == index) for index, state_name in enumerate(names)]
 
     def _forms(self, name: str, base: CompiledElement) -> list[tuple[CompiledElement, np.ndarray]]:
         """The forms an element takes this step, each with the animals it applies to."""
@@ -318,9 +353,7 @@ class ControllerRuntime:
         if machine is None:
             return [(base, np.ones(self.n, dtype=bool))] if base.enabled else []
         forms = []
-        state = self._state[machine]
-        for index, state_name in enumerate(self._state_names[machine]):
-            mask = state == index
+        for index, (state_name, mask) in enumerate(self._state_masks[machine]):
             if not mask.any():
                 continue
             form = self.compiled.machines[machine].states[state_name].elements.get(name, base)
@@ -384,7 +417,7 @@ class ControllerRuntime:
             self._cycle(element, mask, env, batch)
 
     def _body_of(self, point: str) -> np.ndarray:
-        return self._bodies[:, R.ROLES.index(point.partition(".")[0])]
+        return self._point_bodies[:, self._point_index[point]]
 
     def _frame_vectors(self, vectors: np.ndarray, frame: str, env: _StepEnv) -> np.ndarray:
         """Vectors given in `frame` (heading, world or a role's body frame) in the world."""
@@ -492,7 +525,7 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _unit(vectors: np.ndarray) -> np.ndarray:
-    norm = np.linalg.norm(vectors, axis=1, keepdims=True)
+    norm = np.sqrt(np.einsum("ni,ni->n", vectors, vectors))[:, None]
     return np.where(norm > 1e-12, vectors / np.maximum(norm, 1e-12), 0.0)
 
 

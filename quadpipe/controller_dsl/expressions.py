@@ -371,7 +371,7 @@ def _froude(types: list[Type], text: str) -> Type:
 
 
 def _safe_normalize(v: np.ndarray) -> np.ndarray:
-    length = np.linalg.norm(v, axis=-1, keepdims=True)
+    length = np.sqrt(np.einsum("...i,...i->...", v, v))[..., None]
     return np.where(length > ZERO_NORM, v / np.maximum(length, ZERO_NORM), 0.0)
 
 
@@ -985,7 +985,14 @@ def _build_var(expr: Expr, scale: U.Scale, n: int) -> Callable[[Env], np.ndarray
         return lambda env: distance
     shape = _shape(expr.type, n)
     dtype = bool if expr.type.kind == BOOL else float
-    return lambda env: np.broadcast_to(np.asarray(env[key], dtype=dtype), shape)
+
+    def read(env: Env) -> np.ndarray:
+        value = env[key]
+        if isinstance(value, np.ndarray) and value.shape == shape and value.dtype == dtype:
+            return value
+        return np.broadcast_to(np.asarray(value, dtype=dtype), shape)
+
+    return read
 
 
 def _build_call(expr: Expr, args: list[Callable], types: list[Type], scale: U.Scale) -> Callable[[Env], np.ndarray]:
