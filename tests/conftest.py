@@ -35,3 +35,13 @@ def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
 def cli():
     """The `run_cli` helper as a fixture."""
     return run_cli
+
+
+@functools.lru_cache(maxsize=None)
+def cached_simulation(
+    animal: str, controller: str, seconds: float, scene: str | None = None, parameters: tuple[tuple[str, str], ...] = ()
+):
+    """`quadpipe.simulate.simulate`, run once per session for the same arguments."""
+    from quadpipe.simulate import simulate
+
+    return simulate(animal, controller, seconds=seconds, scene=scene, parameters=dict(parameters))

@@ -6,13 +6,13 @@ The simulations are deterministic and cached per module, so each one runs once.
 
 from __future__ import annotations
 
-import functools
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from quadpipe import roles as R
+from tests.conftest import cached_simulation
 
 ANIMAL = "dog"
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "behaviour"
@@ -80,12 +80,9 @@ FRAME_STEP_HP = 0.1
 # --------------------------------------------------------------------------- clips
 
 
-@functools.lru_cache(maxsize=None)
 def _run(controller: str, seconds: float, parameters: tuple[tuple[str, str], ...] = ()):
     """Simulate the dog under a controller (cached: each simulation runs once per session)."""
-    from quadpipe.simulate import simulate
-
-    return simulate(ANIMAL, controller, seconds=seconds, parameters=dict(parameters))
+    return cached_simulation(ANIMAL, controller, seconds, None, parameters)
 
 
 def _track(controller: str, seconds: float, parameters: tuple[tuple[str, str], ...] = ()):

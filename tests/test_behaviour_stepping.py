@@ -7,12 +7,12 @@ heights (HP). The simulations are deterministic and cached, so each one runs onc
 
 from __future__ import annotations
 
-import functools
 
 import numpy as np
 import pytest
 
 from quadpipe import roles as R
+from tests.conftest import cached_simulation
 
 ANIMAL = "dog"
 FPS = 30
@@ -48,11 +48,9 @@ STILL_HP = 0.2
 """Without the pull or the push, the dog moves less than this."""
 
 
-@functools.lru_cache(maxsize=None)
 def _run(controller: str, seconds: float, parameters: tuple[tuple[str, str], ...] = ()):
-    from quadpipe.simulate import simulate
-
-    return simulate(ANIMAL, controller, seconds=seconds, parameters=dict(parameters))
+    """Simulate the dog under a controller (cached: each simulation runs once per session)."""
+    return cached_simulation(ANIMAL, controller, seconds, None, parameters)
 
 
 def _figures(controller: str, seconds: float, parameters: tuple[tuple[str, str], ...] = ()) -> dict:
