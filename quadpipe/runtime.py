@@ -553,9 +553,10 @@ def build_runtime(
         scene_parameters: values a scene offers (its goals); only those the controller
             declares are used, and `parameters` win over them.
     """
-    declared = load_controller(controller).parameters
-    offered = {name: value for name, value in (scene_parameters or {}).items() if name in declared}
+    spec = load_controller(controller)
+    offered = {name: value for name, value in (scene_parameters or {}).items() if name in spec.parameters}
     overrides = offered | dict(parameters or {})
-    spec = load_controller(controller, parameters=overrides)
+    if overrides:
+        spec = load_controller(controller, parameters=overrides)
     scale = scale_for_animals([p.built.animal for p in placements])
     return ControllerRuntime(compile_controller(spec, scale), model, placements)
