@@ -29,6 +29,7 @@ _state = {"debug": False}
 
 EXIT_INPUT_ERROR = 1
 EXIT_INTERNAL_ERROR = 3
+EXIT_INTERRUPTED = 130
 
 
 class OutputFormat(str, Enum):
@@ -332,6 +333,37 @@ def _run_and_write(
 
 
 @app.command()
+def batch(
+    plan: Annotated[Optional[Path], typer.Argument(help="A batch plan (.yaml); the options below replace its values.")] = None,
+    animals: Annotated[Optional[list[str]], typer.Option("--animal", "-a", help="Animals: names or files, repeated or comma-separated, or 'all'.")] = None,
+    controllers: Annotated[Optional[list[str]], typer.Option("--controller", "-c", help="Controllers: names or files, or 'all'.")] = None,
+    scenes: Annotated[Optional[list[str]], typer.Option("--scene", help="Scenes: names or files, or 'all' (default: flat).")] = None,
+    seconds: Annotated[Optional[float], typer.Option("--seconds", "-s", help="Simulated time of every job (default: 10).")] = None,
+    formats: Annotated[Optional[list[str]], typer.Option("--format", "-f", help="Formats to write: glb, usdc, bvh, npz... (default: glb).")] = None,
+    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="Folder of the files (default: out/batch).")] = None,
+    workers: Annotated[Optional[int], typer.Option("--workers", "-j", min=1, help="Worker processes (default: one per CPU core).")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Redo jobs whose files are all there already.")] = False,
+    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="Run on a Dask cluster: its scheduler's address (tcp://host:8786).")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars; only the summary.")] = False,
+) -> None:
+    """Bake every animal x controller x scene of a plan in parallel, locally or on a Dask cluster.
+
+    Each job writes OUTPUT/<animal>_<controller>_<scene>.<format> for every format, and a
+    .metrics.json. Jobs whose files are all there are skipped (--force redoes them); a failing job
+    does not stop the others, and the exit code is 1 if any failed. See docs/batch.md.
+    Example: quadpipe batch configs/batches/walks.yaml -j 4   |   quadpipe batch -a dog,horse -c spine_walk -f glb -f usdc -s 5
+    """
+    from rich.console import Console
+
+    from quadpipe.batch import plan_from, run_batch, summary_table
+
+    chosen = plan_from(plan, animals=animals, controllers=controllers, scenes=scenes, seconds=seconds, formats=formats, output=output)
+    report = run_batch(chosen, workers=workers, force=force, scheduler=scheduler, progress=not quiet)
+    Console().print(summary_table(report))
+    raise typer.Exit(report.exit_code)
+
+
+@app.command()
 def render(
     outputs: Annotated[list[Path], typer.Option("-o", "--output", help="Video or picture: .mp4, .gif, or .png (a contact sheet).")],
     clip: Annotated[Optional[Path], typer.Argument(help="A baked clip (.npz); without it, simulate first.")] = None,
@@ -426,6 +458,11 @@ def main() -> None:
             raise
         typer.echo(exc.format(), err=True)
         sys.exit(EXIT_INPUT_ERROR)
+    except KeyboardInterrupt:
+        if _state["debug"]:
+            raise
+        typer.echo("interrupted", err=True)
+        sys.exit(EXIT_INTERRUPTED)
     except Exception as exc:  # a bug in quadpipe, not in the user's input
         if _state["debug"]:
             raise

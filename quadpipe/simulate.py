@@ -78,8 +78,19 @@ class Run:
         mujoco.mj_step2(self.model, self.data)
 
 
-def run_frames(run: Run, seconds: float, metadata: dict[str, str] | None = None) -> Clip:
+def run_frames(
+    run: Run,
+    seconds: float,
+    metadata: dict[str, str] | None = None,
+    on_frame: Callable[[float], None] | None = None,
+) -> Clip:
     """Simulate `seconds` and record one frame every 1/30 s (the first frame is the start).
+
+    Args:
+        run: the prepared world.
+        seconds: simulated time.
+        metadata: kept in the clip.
+        on_frame: called with the simulated time after every frame (progress, interruption).
 
     Raises:
         SimulationBlowUp: on a NaN, a bad-acceleration warning or a body flung far away.
@@ -94,6 +105,8 @@ def run_frames(run: Run, seconds: float, metadata: dict[str, str] | None = None)
             run.step()
         check_health(run, frame, far)
         recorder.capture(run.data, frame_values(run))
+        if on_frame is not None:
+            on_frame(run.data.time)
     return recorder.clip({"status": "ok", **(metadata or {})})
 
 
@@ -151,6 +164,7 @@ def simulate(
     scene: str | None = None,
     parameters: dict[str, str] | None = None,
     extra_controllers: Sequence[Controller] = (),
+    on_frame: Callable[[float], None] | None = None,
 ) -> Result:
     """Build an animal (and scene), run a controller on it, and return the clip and its metrics.
 
@@ -161,6 +175,7 @@ def simulate(
         scene: scene name or path (None: `flat`).
         parameters: controller parameter overrides (YAML values: "2 HP", "[1, 0, 0]").
         extra_controllers: more `Controller`s run after the main one (tests push with these).
+        on_frame: called with the simulated time after every frame (progress, interruption).
     """
     from quadpipe.animals import load_animal
     from quadpipe.model import build_animal
@@ -180,7 +195,7 @@ def simulate(
     controllers = ([runtime] if runtime else []) + list(extra_controllers)
     run = Run(model, data, setup.placements, controllers, events=setup.events(model))
     metadata = {"controller": controller or "none", "scene": scene_spec.name, "animal": built.animal.name}
-    clip = run_frames(run, seconds, metadata)
+    clip = run_frames(run, seconds, metadata, on_frame)
     return Result(clip, clip_metrics(clip), runtime)
 
 
