@@ -133,6 +133,8 @@ class Plan:
         export_repeats: exports timed per format.
         render_repeats: `render_fps` measurements.
         render_frames: frames rendered per measurement.
+        batch_animals: animals of the batch benchmark (None: all).
+        batch_seconds: simulated seconds of each batch job.
     """
 
     name: str
@@ -148,14 +150,16 @@ class Plan:
     export_repeats: int
     render_repeats: int
     render_frames: int
+    batch_animals: tuple[str, ...] | None
+    batch_seconds: float
 
 
 FULL = Plan("full", all_pairs=True, repeats=5, controller_seconds=1.0, crowd_sizes=(1, 10, 50, 100), crowd_repeats=3,
             crowd_seconds=1.0, clip_seconds=10.0, bake_runs=3, startup_runs=10, export_repeats=5,
-            render_repeats=3, render_frames=60)
+            render_repeats=3, render_frames=60, batch_animals=None, batch_seconds=10.0)
 QUICK = Plan("quick", all_pairs=False, repeats=2, controller_seconds=0.1, crowd_sizes=(1, 10), crowd_repeats=2,
              crowd_seconds=0.1, clip_seconds=2.0, bake_runs=1, startup_runs=3, export_repeats=2,
-             render_repeats=2, render_frames=10)
+             render_repeats=2, render_frames=10, batch_animals=("dog", "cat"), batch_seconds=0.5)
 
 
 # --------------------------------------------------------------------------- results
@@ -778,6 +782,35 @@ def bench_render(ctx: Context) -> Section:
     return Section("Headless render", [Row(labels, figures)], [note])
 
 
+def bench_batch(ctx: Context) -> Section:
+    """`quadpipe batch` of animals x every shipped controller to .glb, on 2 workers beside 1."""
+    from quadpipe import configs
+    from quadpipe.batch import BatchPlan, Outcome, run_batch
+
+    animals = list(ctx.plan.batch_animals or configs.available("animals"))
+    controllers = configs.available("controllers")
+    labels = {"batch": f"{len(animals)} animals x {len(controllers)} controllers, {ctx.plan.batch_seconds:g} s each -> .glb"}
+    walls, outcomes = {}, {}
+    try:
+        for workers in (2, 1):
+            plan = BatchPlan(animals=animals, controllers=controllers, seconds=ctx.plan.batch_seconds,
+                             formats=["glb"], output=str(ctx.folder / f"batch_j{workers}"))
+            start = time.perf_counter()
+            report = run_batch(plan, workers=workers, force=True, progress=False)
+            walls[workers] = time.perf_counter() - start
+            outcomes[workers] = report.count(Outcome.ok)
+    except Exception as exc:  # recorded: the other sections still run
+        return Section("Batch", [Row(labels, status=error_text(exc))])
+    figures = {
+        "j2_wall": figure([walls[2]], "s"),
+        "j1_wall": figure([walls[1]], "s"),
+        "speedup": figure([walls[1] / walls[2]], "x", "higher"),
+        "jobs_ok": figure([outcomes[2]], "jobs", "higher"),
+    }
+    note = "jobs that blow up or fail count as done (they are reported in the batch's summary, not here)"
+    return Section("Batch", [Row(labels, figures)], [note])
+
+
 SECTIONS: dict[str, Callable[[Context], Section]] = {
     "controllers": bench_controllers,
     "crowds": bench_crowds,
@@ -785,6 +818,7 @@ SECTIONS: dict[str, Callable[[Context], Section]] = {
     "startup": bench_startup,
     "exporters": bench_exporters,
     "render": bench_render,
+    "batch": bench_batch,
 }
 """Every benchmark, in the order they run."""
 

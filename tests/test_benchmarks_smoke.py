@@ -13,7 +13,7 @@ import pytest
 from tests.conftest import REPO
 
 BENCH = REPO / "benchmarks" / "bench.py"
-SECTIONS = ("controllers", "crowds", "bake", "startup", "exporters", "render")
+SECTIONS = ("controllers", "crowds", "bake", "startup", "exporters", "render", "batch")
 MACHINE_KEYS = ("cpu", "logical_cores", "os", "python", "mujoco", "numpy", "quadpipe", "git_commit")
 QUICK_TIMEOUT_S = 600
 
