@@ -364,6 +364,35 @@ def batch(
 
 
 @app.command()
+def preview(
+    clip: Annotated[Optional[Path], typer.Argument(help="A baked clip (.npz) to replay; without it, simulate live.")] = None,
+    animal: AnimalOpt = "dog",
+    controller: ControllerOpt = "spine_walk",
+    scene: SceneOpt = "flat",
+    parameters: SetOpt = None,
+) -> None:
+    """Open a window: watch the animal simulate live while you edit its controller (saved edits reload), or replay a clip.
+
+    Keys: space pause, . step, r reset, m slow motion, b/x throw a ball/box, arrows move the goal, 1-9 force a state,
+    F1-F6 overlays, c free camera, h help.
+    Example: quadpipe preview --animal dog --controller my_walk.yaml --scene hill   |   quadpipe preview run.npz
+    """
+    from quadpipe.preview.window import check_display, open_window
+
+    check_display()
+    if clip is not None:
+        from quadpipe.preview.app import load_replay
+
+        model, title = load_replay(clip), f"quadpipe preview: {clip}"
+    else:
+        from quadpipe.preview.app import LivePreview
+
+        model = LivePreview(animal, controller, scene, _parameters(parameters))
+        title = f"quadpipe preview: {animal} / {controller} / {scene}"
+    open_window(model, title)
+
+
+@app.command()
 def render(
     outputs: Annotated[list[Path], typer.Option("-o", "--output", help="Video or picture: .mp4, .gif, or .png (a contact sheet).")],
     clip: Annotated[Optional[Path], typer.Argument(help="A baked clip (.npz); without it, simulate first.")] = None,

@@ -380,6 +380,42 @@ class ControllerRuntime:
                 values[f"{name}:{placement.name}"] = value[index]
         return values
 
+    def adopt(self, previous: "ControllerRuntime") -> None:
+        """Take over the running state of the runtime this one replaces (a hot reload).
+
+        Cycle phases, machine states (with their time in state) and smoothed sensor values are
+        kept for every cycle, machine, state and sensor this controller still has, so a
+        reloaded walk keeps its footfalls.
+        """
+        if previous.n != self.n:
+            return
+        for name, phase in previous._phase.items():
+            if name in self._phase:
+                self._phase[name][:] = phase
+        for machine, old_names in previous._state_names.items():
+            names = self._state_names.get(machine)
+            if names is None:
+                continue
+            for animal, index in enumerate(previous._state[machine]):
+                if old_names[index] in names:
+                    self._state[machine][animal] = names.index(old_names[index])
+                    self._time_in_state[machine][animal] = previous._time_in_state[machine][animal]
+        for name, value in previous._smoothed.items():
+            if name in self._sensors:
+                self._smoothed[name] = value
+
+    def force_state(self, machine: str, state: str) -> None:
+        """Put every animal's `machine` in `state`, its time in state back to 0.
+
+        Raises:
+            KeyError: no such machine or state.
+        """
+        names = self._state_names[machine]
+        if state not in names:
+            raise KeyError(state)
+        self._state[machine][:] = names.index(state)
+        self._time_in_state[machine][:] = 0.0
+
     def state_of(self, machine: str) -> list[str]:
         """The current state of a machine, per animal."""
         names = self._state_names[machine]

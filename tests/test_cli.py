@@ -122,3 +122,11 @@ def test_analyze_recognises_a_simulated_walk_and_draws_its_footfalls(cli, tmp_pa
     gait = json.loads(report.read_text())["animals"]["dog"]["gait"]
     assert gait["name"] == "walk"
     assert diagram.stat().st_size > 1000
+
+
+def test_preview_without_a_display_says_so(cli, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    result = cli("preview", "--controller", "rigid")
+    assert result.returncode == 1
+    assert "error no-display" in result.stderr and "Traceback" not in result.stderr
