@@ -632,3 +632,28 @@ def test_tessellated_solids_are_closed_and_face_outward(kind, size, volume):
     assert (np.einsum("ij,ij->i", mesh.normals[mesh.faces].mean(axis=1), winding_normals) > 0).all()
     again = shape_mesh(shape)
     assert again.vertices.tobytes() == mesh.vertices.tobytes() and again.faces.tobytes() == mesh.faces.tobytes()
+
+
+# --------------------------------------------------------------------------- every shipped controller and animal
+
+SHIPPED_CLIP_SECONDS = 1.0
+
+
+def _shipped_cases() -> list[tuple[str, str]]:
+    from quadpipe import configs
+
+    cases = [("dog", controller) for controller in configs.available("controllers")]
+    return cases + [(animal, "spine_walk") for animal in configs.available("animals") if animal != "dog"]
+
+
+@pytest.mark.slow
+@needs_node
+@pytest.mark.parametrize(("animal", "controller"), _shipped_cases())
+def test_every_shipped_controller_and_animal_bakes_valid_gltf_and_usd(animal, controller, tmp_path):
+    from quadpipe.simulate import simulate
+
+    clip = simulate(animal, controller, seconds=SHIPPED_CLIP_SECONDS).clip
+    glb = export_clip(clip, tmp_path / "clip.glb")
+    issues = run_node("validate_gltf.mjs", str(glb))["issues"]
+    assert (issues["numErrors"], issues["numWarnings"]) == (0, 0), json.dumps(issues["messages"], indent=1)
+    assert usd_errors(export_clip(clip, tmp_path / "clip.usdc")) == []
