@@ -15,7 +15,7 @@ from __future__ import annotations
 import difflib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Iterable
 
 
 @dataclass(frozen=True)
@@ -104,8 +104,3 @@ def did_you_mean(name: str, options: Iterable[str], *, listing: bool = True) -> 
         hint = f"{hint} ({valid})" if hint else valid
     return hint
 
-
-def raise_all(issues: Sequence[Issue]) -> None:
-    """Raise a `QuadpipeError` if any issue is an error; warnings alone do not raise."""
-    if any(issue.severity == "error" for issue in issues):
-        raise QuadpipeError(list(issues))

@@ -474,8 +474,6 @@ LOCAL_HELP: dict[str, str] = {
 
 LOCAL_NAMES: tuple[str, ...] = tuple(LOCAL_HELP)
 
-RESERVED_NAMES: frozenset[str] = frozenset({TIME_VARIABLE, *CONSTANTS, *U.UNITS, *FUNCTIONS, *R.ROLES, *R.LEGS, *LOCAL_NAMES})
-"""Names a parameter, sensor or cycle may not take."""
 
 
 # --------------------------------------------------------------------------- parsing

@@ -102,6 +102,3 @@ class ControllerSpec:
     machines: Mapping[str, MachineSpec]
     warnings: tuple[Issue, ...] = field(default=())
 
-    def elements_of_type(self, kind: str) -> dict[str, Element]:
-        """Elements of one `type` (`segment`, `sensor`, ...), in order."""
-        return {name: element for name, element in self.elements.items() if element.type == kind}
