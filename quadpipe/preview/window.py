@@ -412,6 +412,7 @@ class PreviewWindow:
             self._look(*self.camera.follow(self.preview.focus(), self._eye(), dt))
         self.status.text = self.preview.status_line() + ("" if self.camera.following else "  |  free camera")
         self.errors.text = self.preview.error or ""
+        self.errors.visible = bool(self.preview.error)
         time.sleep(TICK_SLEEP_S)
         return True
 
