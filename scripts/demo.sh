@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install.sh
-OUT=out/demo
+OUT="${QUADPIPE_DEMO_OUT:-out/demo}"
 mkdir -p "$OUT"
 QP=.venv/bin/quadpipe
 set -x
