@@ -927,6 +927,7 @@ class Compiled:
     fn: Callable[[Env], np.ndarray]
     constant: np.ndarray | None
     text: str = ""
+    expr: Expr | None = None
 
     def __call__(self, env: Env) -> np.ndarray:
         return self.constant if self.constant is not None else self.fn(env)
@@ -1054,7 +1055,7 @@ def compile_expr(expr: Expr, scale: U.Scale) -> Compiled:
     """Compile a checked expression for the animals of `scale`."""
     fn = _build(expr, scale)
     constant = np.asarray(fn({})) if not expr.needs else None
-    return Compiled(expr.type, expr.needs, fn, constant, expr.text)
+    return Compiled(expr.type, expr.needs, fn, constant, expr.text, expr)
 
 
 def compile_quantity(

@@ -1,0 +1,149 @@
+"""The controller kernel computes what the language means.
+
+The reference meaning of an expression is the numpy evaluator of `expressions.py` (which
+also folds every constant); the kernel must give the same numbers for every function and
+operator, with scalars and vectors mixed, through a real runtime. A crowd's animals are
+each driven as they would be alone.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+import yaml
+
+from quadpipe.controller_dsl import expressions as X
+from quadpipe.controller_dsl.compile import compile_controller
+from quadpipe.controller_dsl.semantics import load_controller
+from quadpipe.controller_dsl.units import scale_for_animals
+from quadpipe.runtime import ControllerRuntime
+from quadpipe.scene import build_scene, load_scene
+from quadpipe.simulate import simulate
+from tests.conftest import built_animal
+
+PROBES: dict[str, str] = {
+    "sin": "sin(t / 1 s)",
+    "cos": "cos(t / 1 s) - 0.5",
+    "tan": "tan(t / 4 s)",
+    "asin": "asin(t / 2 s - 1) / 1 rad",
+    "acos": "acos(0.8 - t / 2 s) / 1 rad",
+    "atan": "atan(t / 1 s - 1) / 1 rad",
+    "atan2": "atan2(t - 1 s, 0.5 s) / 1 rad",
+    "sqrt": "sqrt(t / 1 s - 0.5)",
+    "exp": "exp(-t / 1 s)",
+    "log": "log(t / 1 s)",
+    "abs": "abs(t - 1 s) / 1 s",
+    "sign": "sign(t - 1 s)",
+    "min": "min(t / 1 s, 1, 2 - t / 1 s)",
+    "max": "max(t / 1 s, 1)",
+    "clamp": "clamp(t / 1 s, 0.5, 1.2)",
+    "wrap": "wrap(0.25 - t / 1 s)",
+    "leg_sweep": "leg_sweep(wrap(t / 1 s), 0.6)",
+    "leg_lift": "leg_lift(wrap(t / 1 s), 0.6)",
+    "step": "step(1 s, t)",
+    "smoothstep": "smoothstep(0.5 s, 2 s, t) + smoothstep(1 s, 1 s, t)",
+    "mix": "mix(1, 3, t / 2 s) + dot(mix([1, 0, 0], [0, 2, 0], t / 1 s), [1, 1, 0])",
+    "norm": "norm([t / 1 s, 1, 2])",
+    "normalize": "dot(normalize([t / 1 s - 1, 1, 0]), [1, 0, 0]) + norm(normalize([0, 0, 0]))",
+    "dot": "dot([t / 1 s, 1, 2], [3, t / 1 s, -1])",
+    "cross": "cross([t / 1 s, 1, 0], [0, 1, t / 1 s]).x + cross([1, t / 1 s, 0], [0, 0, 1]).y",
+    "angle": "angle([1, 0, 0], [1, t / 1 s, 0]) / 1 rad",
+    "horizontal": "norm(horizontal([1, 2, t / 1 s]))",
+    "heading": "heading([t / 1 s, 1, 0]).x + heading([0, 0, t / 1 s]).z",
+    "froude_speed": "froude_speed(t / 1 s) / 1 m/s",
+    "phase": "phase(clock)",
+    "contact": "1 if contact(lf) else 0",
+    "operators": "(t / 1 s) ^ 2 - t / 1 s * 3 + 1 / (t / 1 s - 1) + (-(t / 1 s))",
+    "comparisons": "(1 if 0.5 s < t <= 1.5 s else 0) + (1 if t > 1 s and not t >= 2 s or t < 0.2 s else 0)",
+    "components": "[t / 1 s, 2, 3].x * [t / 1 s, 2, 3].y - [1, 2, t / 1 s].z",
+    "sensor": "dot(tilt, [0, 0, 1]) / 1 m/s^2",
+}
+"""One probe per function of the language (and per operator kind): a plain number that
+depends on the simulation (`t`, a cycle, a contact, a sensor), so it is not folded."""
+
+SPECIAL = {"phase", "contact"}
+"""Functions whose argument is a name: probed by reading the state they name."""
+
+TIMES_S = (0.15, 0.7, 1.05, 1.6, 2.4)
+"""Probe times: on both sides of every edge, branch and wrap the probes have."""
+
+
+def probe_controller(folder: Path) -> Path:
+    """A controller with one probe per entry of PROBES: a 1 N pull scaled by it."""
+    elements = [
+        {"type": "cycle", "name": "clock", "sites": {"pelvis.mid": 0}, "period": "0.8 s", "strength": "0 N"},
+        {"type": "sensor", "name": "tilt", "kind": "balance", "at": "thorax.mid", "smoothing": "0.05 s"},
+    ]
+    for name, text in PROBES.items():
+        elements.append({
+            "type": "pull", "name": f"probe_{name}", "at": "pelvis.mid", "direction": {"vector": [0, 0, 1], "frame": "world"},
+            "strength": f"({text}) * 1 N",
+        })  # fmt: skip
+    path = folder / "probes.yaml"
+    path.write_text(yaml.safe_dump({"schema": 1, "name": "probes", "elements": elements}, sort_keys=False))
+    return path
+
+
+def reference_env(runtime: ControllerRuntime, data: mujoco.MjData) -> dict[str, np.ndarray]:
+    """The env the numpy evaluator reads, from the runtime's own state after its step."""
+    phase_row = runtime.program.cycles.index("clock")
+    contacts = runtime._state["contact"][:, 0] > 0.5
+    return {
+        "t": np.full(runtime.n, data.time),
+        X.HEADING_FRAME_KEY: runtime.heading_frames(data),
+        "phase:clock": runtime._state["phase"][phase_row] % 1.0,
+        "contact:lf": contacts,
+        "sensor:tilt": runtime.sensor_values(data)["tilt"],
+    }
+
+
+def test_every_function_of_the_language_is_probed() -> None:
+    assert set(X.FUNCTIONS) <= set(PROBES)
+
+
+def test_the_kernel_computes_every_function_as_the_reference_does(tmp_path: Path) -> None:
+    built = built_animal("dog")
+    setup = build_scene(load_scene("flat"), built)
+    model, compiled = setup.spec.compile(), compile_controller(load_controller(str(probe_controller(tmp_path))), scale_for_animals([built.animal]))
+    data = mujoco.MjData(model)
+    runtime = ControllerRuntime(compiled, model, setup.placements)
+    pulls = [index for index, (_, kind) in enumerate(runtime.program.slots) if kind == "pull"]
+    assert len(pulls) == len(PROBES)
+    checked = 0
+    while data.time < max(TIMES_S):
+        mujoco.mj_step1(model, data)
+        data.xfrc_applied[:] = 0.0
+        runtime.apply(model, data)
+        if any(abs(data.time - time) < model.opt.timestep / 2 for time in TIMES_S):
+            env = reference_env(runtime, data)
+            for slot, name in zip(pulls, PROBES):
+                expected = compiled.elements[f"probe_{name}"].value("strength")(env)[0]
+                got = runtime.last.forces[slot, 2]
+                assert got == pytest.approx(expected, rel=1e-12, abs=1e-12), f"{name} at t = {data.time:.3f} s: {PROBES[name]}"
+            checked += 1
+        data.xfrc_applied[:] = 0.0  # the probes only measure: the dog stays a passive ragdoll
+        mujoco.mj_step2(model, data)
+    assert checked == len(TIMES_S)
+
+
+FAR_GOAL = {"goal": "[100000 HP, 0, 0]"}
+"""Straight ahead of each animal, so far that where it starts makes no difference."""
+
+
+def pair_scene(folder: Path) -> Path:
+    """A dog, and a pig 6 HP behind it on the same line (animals do not collide with each other)."""
+    path = folder / "pair.yaml"
+    animals = [{"name": "a", "species": "dog", "at": [0, 0]}, {"name": "b", "species": "pig", "at": ["-6 HP", 0]}]
+    path.write_text(yaml.safe_dump({"schema": 1, "name": "pair", "animals": animals}, sort_keys=False))
+    return path
+
+
+def test_animals_of_a_crowd_are_each_driven_as_when_alone(tmp_path: Path) -> None:
+    pair = simulate("dog", "spine_walk", seconds=2.0, scene=str(pair_scene(tmp_path)), parameters=FAR_GOAL).clip
+    for track, species in zip(pair.animals, ("dog", "pig")):
+        alone = simulate(species, "spine_walk", seconds=2.0, parameters=FAR_GOAL).clip.animals[0]
+        together = track.positions - track.positions[0, 0]
+        np.testing.assert_allclose(together, alone.positions - alone.positions[0, 0], atol=1e-6 * track.pelvis_height)
