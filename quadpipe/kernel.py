@@ -24,6 +24,7 @@ One call of `run` does, in order:
 from __future__ import annotations
 
 import math
+from typing import Mapping, Sequence
 
 import numba
 import numpy as np
@@ -74,6 +75,62 @@ FORCE, SPRING = 90, 91
 
 CODE_WIDTH = 7
 """Columns of an instruction: op, dst, a, b, c, d, e."""
+
+
+INTEGER_ARRAYS = (
+    "point_body", "frame_body", "leg_of_geom", "animal_of_geom", "heading_points", "spring_start",
+    "spring_dof", "spring_qpos", "spring_twist", "slot_body", "body_root", "state", "sensor_ready",
+)  # fmt: skip
+"""The integer arrays of a runtime, packed into one buffer (`pack`), in this order."""
+(POINT_BODY, FRAME_BODY, LEG_OF_GEOM, ANIMAL_OF_GEOM, HEADING_POINTS, SPRING_START, SPRING_DOF,
+ SPRING_QPOS, SPRING_TWIST, SLOT_BODY, BODY_ROOT, STATE, SENSOR_READY) = range(len(INTEGER_ARRAYS))  # fmt: skip
+
+REAL_ARRAYS = (
+    "point_offset", "base_damping", "slot_point", "slot_force", "phase", "time_in_state",
+    "damping", "contact", "normals", "heading",
+)  # fmt: skip
+"""The float arrays of a runtime, packed into one buffer (`pack`), in this order."""
+(POINT_OFFSET, BASE_DAMPING, SLOT_POINT, SLOT_FORCE, PHASES, TIME_IN_STATE, DAMPING, CONTACTS,
+ NORMALS, HEADING_FRAMES) = range(len(REAL_ARRAYS))  # fmt: skip
+
+
+def pack(arrays: Mapping[str, np.ndarray], names: Sequence[str], dtype: type) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """Copy named arrays into one buffer, so the kernel takes two arguments instead of many.
+
+    Returns:
+        The buffer; its layout, a row `(offset, d0, d1, d2)` per name (missing dimensions
+        are 1); and a view of the buffer per name, shaped as the array given (writing into a
+        view writes into the buffer the kernel reads).
+    """
+    values = [np.asarray(arrays[name], dtype=dtype) for name in names]
+    layout = np.zeros((len(names), 4), dtype=np.int64)
+    offset = 0
+    for row, value in enumerate(values):
+        layout[row] = (offset, *(value.shape + (1,) * (3 - value.ndim)))
+        offset += value.size
+    buffer = np.zeros(offset, dtype=dtype)
+    views = {}
+    for row, (name, value) in enumerate(zip(names, values)):
+        views[name] = buffer[layout[row, 0] : layout[row, 0] + value.size].reshape(value.shape)
+        views[name][...] = value
+    return buffer, layout, views
+
+
+@numba.njit(cache=True)
+def _flat(buffer, layout, row):
+    return buffer[layout[row, 0] : layout[row, 0] + layout[row, 1]]
+
+
+@numba.njit(cache=True)
+def _matrix(buffer, layout, row):
+    start = layout[row, 0]
+    return buffer[start : start + layout[row, 1] * layout[row, 2]].reshape((layout[row, 1], layout[row, 2]))
+
+
+@numba.njit(cache=True)
+def _block(buffer, layout, row):
+    start, d0, d1, d2 = layout[row, 0], layout[row, 1], layout[row, 2], layout[row, 3]
+    return buffer[start : start + d0 * d1 * d2].reshape((d0, d1, d2))
 
 
 @numba.njit(cache=True)
@@ -193,7 +250,7 @@ def _point(xpos, xmat, body, offset, out) -> None:
 
 
 @numba.njit(cache=True)
-def _contacts(geoms, frames, leg_of_geom, animal_of_geom, contact, normals) -> None:
+def _contacts(ncon, geoms, frames, leg_of_geom, animal_of_geom, contact, normals) -> None:
     """Which feet touch something but their own animal, and the summed normals under them.
 
     The normal of MuJoCo's contact frame points from its first geom to its second; the one
@@ -201,7 +258,7 @@ def _contacts(geoms, frames, leg_of_geom, animal_of_geom, contact, normals) -> N
     """
     contact[:] = 0.0
     normals[:] = 0.0
-    for c in range(geoms.shape[0]):
+    for c in range(ncon):
         for side in range(2):
             foot = geoms[c, side]
             other = geoms[c, 1 - side]
@@ -233,25 +290,34 @@ def _headings(xpos, xmat, point_body, point_offset, pelvis, thorax, heading) -> 
         heading[i, 0, 2], heading[i, 1, 2], heading[i, 2, 2] = 0.0, 0.0, 1.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def run(
-    code, reg, dt,
-    xpos, xmat, xipos, cvel, subtree_com, body_root, qpos, qfrc, xfrc, dof_damping, base_damping,
-    point_body, point_offset, frame_body, leg_of_geom, animal_of_geom, heading_points,
-    spring_start, spring_dof, spring_qpos, spring_twist,
-    slot_body, slot_point, slot_force,
-    phase, state, time_in_state, sensor_ready, damping, contact, normals, heading,
-    first, last, finish, time, contact_geoms, contact_frames,
+    code, reg, integers, integer_layout, reals, real_layout, dt,
+    xpos, xmat, xipos, cvel, subtree_com, qpos, qfrc, xfrc, dof_damping,
+    first, last, finish, time, ncon, contact_geoms, contact_frames,
 ):  # fmt: skip
     """Run instructions `first` to `last` of a controller program (see the module docstring).
 
-    The last six arguments change every call; the others are the same arrays every step.
-    MuJoCo arrays are the data's and the model's own (forces are added into `xfrc` and
-    `qfrc`, damping written into `dof_damping`); the tables come from the lowering; the state
-    arrays (`phase`, `state`, `time_in_state`, `sensor_ready`) persist between steps.
+    `integers` and `reals` hold the runtime's tables and state (`INTEGER_ARRAYS` and
+    `REAL_ARRAYS`, see `pack`); MuJoCo arrays are the data's and the model's own (forces are
+    added into `xfrc` and `qfrc`, damping written into `dof_damping`). The last seven
+    arguments change every call; `contact_geoms` and `contact_frames` have `ncon` rows (or
+    more: the rest is ignored).
     """
     n = reg.shape[1]
-    _contacts(contact_geoms, contact_frames, leg_of_geom, animal_of_geom, contact, normals)
+    point_body, frame_body = _matrix(integers, integer_layout, POINT_BODY), _matrix(integers, integer_layout, FRAME_BODY)
+    leg_of_geom, animal_of_geom = _flat(integers, integer_layout, LEG_OF_GEOM), _flat(integers, integer_layout, ANIMAL_OF_GEOM)
+    heading_points, body_root = _flat(integers, integer_layout, HEADING_POINTS), _flat(integers, integer_layout, BODY_ROOT)
+    spring_start, spring_dof = _flat(integers, integer_layout, SPRING_START), _matrix(integers, integer_layout, SPRING_DOF)
+    spring_qpos, spring_twist = _matrix(integers, integer_layout, SPRING_QPOS), _matrix(integers, integer_layout, SPRING_TWIST)
+    slot_body, state = _matrix(integers, integer_layout, SLOT_BODY), _matrix(integers, integer_layout, STATE)
+    sensor_ready = _flat(integers, integer_layout, SENSOR_READY)
+    point_offset, base_damping = _block(reals, real_layout, POINT_OFFSET), _flat(reals, real_layout, BASE_DAMPING)
+    slot_point, slot_force = _block(reals, real_layout, SLOT_POINT), _block(reals, real_layout, SLOT_FORCE)
+    phase, time_in_state = _matrix(reals, real_layout, PHASES), _matrix(reals, real_layout, TIME_IN_STATE)
+    damping, contact = _flat(reals, real_layout, DAMPING), _matrix(reals, real_layout, CONTACTS)
+    normals, heading = _block(reals, real_layout, NORMALS), _block(reals, real_layout, HEADING_FRAMES)
+    _contacts(ncon, contact_geoms, contact_frames, leg_of_geom, animal_of_geom, contact, normals)
     _headings(xpos, xmat, point_body, point_offset, heading_points[0], heading_points[1], heading)
     if finish:
         slot_force[:] = 0.0
@@ -362,14 +428,14 @@ def run(
             reg[dst, :, :] = 0.0
         elif op == SMOOTH:
             for i in range(n):
-                if sensor_ready[c]:
+                if sensor_ready[c] != 0:
                     weight = dt / (reg[b, i, 0] + dt)
                     for k in range(3):
                         reg[dst, i, k] = reg[dst, i, k] + weight * (reg[a, i, k] - reg[dst, i, k])
                 else:
                     for k in range(3):
                         reg[dst, i, k] = reg[a, i, k]
-            sensor_ready[c] = True
+            sensor_ready[c] = 1
         elif op == ADVANCE:
             for i in range(n):
                 phase[a, i] += dt / max(reg[b, i, 0], MIN_PERIOD_S)
@@ -403,7 +469,7 @@ def run(
         elif op == SPRING:
             for j in range(spring_start[dst], spring_start[dst + 1]):
                 for i in range(n):
-                    target = reg[a, i, 0] if spring_twist[j, i] else 0.0
+                    target = reg[a, i, 0] if spring_twist[j, i] != 0 else 0.0
                     qfrc[spring_dof[j, i]] += -reg[b, i, 0] * (qpos[spring_qpos[j, i]] - target)
                     damping[spring_dof[j, i]] += reg[c, i, 0]
     if finish:

@@ -84,12 +84,17 @@ class ControllerRuntime:
         for index, row in enumerate(self._bodies):
             self._animal_of_body[row] = index
         self.program = lower(compiled, self.gravity)
-        self._tables = self._bind(self.program)
-        self._state = self._initial_state(self.program)
-        self._base_damping = model.dof_damping.copy()
+        self._registers = np.zeros((self.program.registers, self.n, 3))
+        for register, value in self.program.constants.items():
+            self._registers[register] = value
+        arrays = self._bind(self.program) | self._initial_state(self.program)
+        self._integers, self._integer_layout, integer_views = K.pack(arrays, K.INTEGER_ARRAYS, np.int64)
+        self._reals, self._real_layout, real_views = K.pack(arrays, K.REAL_ARRAYS, np.float64)
+        self._arrays = integer_views | real_views
         self._last: AppliedForces | None = None
         self._fixed_for: mujoco.MjData | None = None
         self._fixed: tuple = ()
+        self._few_contacts = (np.zeros((1, 4), np.int32)[:, ::2], np.zeros((1, 18))[:, ::2])
 
     # ------------------------------------------------------------------ set-up
 
@@ -133,6 +138,7 @@ class ControllerRuntime:
             "spring_twist": np.concatenate(twist + [np.zeros((0, self.n), bool)]).astype(np.bool_),
             "slot_body": np.array([self._body_of(point) for point, _ in program.slots], dtype=np.int64).reshape(-1, self.n),
             "body_root": model.body_rootid.astype(np.int64),
+            "base_damping": model.dof_damping.copy(),
         }
 
     def _spring_tables(self, springs: Sequence[tuple[str, ...]]) -> tuple[list[np.ndarray], ...]:
@@ -154,12 +160,8 @@ class ControllerRuntime:
 
     def _initial_state(self, program: Program) -> dict[str, np.ndarray]:
         """The arrays the kernel keeps between steps, at the start."""
-        registers = np.zeros((program.registers, self.n, 3))
-        for register, value in program.constants.items():
-            registers[register] = value
         machines = self.compiled.machines
         return {
-            "registers": registers,
             "phase": np.zeros((len(program.cycles), self.n)),
             "state": np.array([[names.index(machines[m].initial)] * self.n for m, names in program.machines.items()], dtype=np.int64).reshape(-1, self.n),
             "time_in_state": np.zeros((len(program.machines), self.n)),
@@ -205,7 +207,7 @@ class ControllerRuntime:
     def _heights(self, data: mujoco.MjData) -> None:
         """Fill the raw value of each `height` sensor: the ground (or a prop) below its point."""
         hit = np.zeros(1, dtype=np.int32)
-        registers = self._state["registers"]
+        registers = self._registers
         for register, point in self.program.heights:
             for animal, at in enumerate(self.point(data, point)):
                 distance = mujoco.mj_ray(self.model, data, at, -UP, WORLD_GEOM_GROUPS, 1, -1, hit)
@@ -222,22 +224,31 @@ class ControllerRuntime:
         """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
         if self.program.heights:
             self._heights(data)
-        contacts = data.contact
-        K.run(*self._arguments(data), 0, last, finish, data.time, contacts.geom, contacts.frame)
+        ncon = data.ncon
+        K.run(*self._arguments(data), 0, last, finish, data.time, ncon, *self._contact_arrays(data, ncon))
+
+    def _contact_arrays(self, data: mujoco.MjData, ncon: int) -> tuple[np.ndarray, np.ndarray]:
+        """The geoms and frames of the contacts: views into MuJoCo's contact structs.
+
+        Those views are strided; one of a single contact (or none) would count as
+        contiguous, a different argument type that numba would load a second kernel for.
+        So up to one contact is copied into a strided buffer of our own.
+        """
+        if ncon >= 2:
+            contacts = data.contact
+            return contacts.geom, contacts.frame
+        geoms, frames = self._few_contacts
+        if ncon == 1:
+            geoms[0], frames[0] = data.contact.geom[0], data.contact.frame[0]
+        return geoms, frames
 
     def _arguments(self, data: mujoco.MjData) -> tuple:
         """The kernel's arguments that stay the same from step to step (views of `data`'s arrays)."""
         if self._fixed_for is not data:
-            t, s, model = self._tables, self._state, self.model
             self._fixed = (
-                self.program.code, s["registers"], self.dt,
-                data.xpos, data.xmat, data.xipos, data.cvel, data.subtree_com, t["body_root"], data.qpos,
-                data.qfrc_applied, data.xfrc_applied, model.dof_damping, self._base_damping,
-                t["point_body"], t["point_offset"], t["frame_body"], t["leg_of_geom"], t["animal_of_geom"], t["heading_points"],
-                t["spring_start"], t["spring_dof"], t["spring_qpos"], t["spring_twist"],
-                t["slot_body"], s["slot_point"], s["slot_force"],
-                s["phase"], s["state"], s["time_in_state"], s["sensor_ready"], s["damping"],
-                s["contact"], s["normals"], s["heading"],
+                self.program.code, self._registers, self._integers, self._integer_layout, self._reals, self._real_layout, self.dt,
+                data.xpos, data.xmat, data.xipos, data.cvel, data.subtree_com, data.qpos,
+                data.qfrc_applied, data.xfrc_applied, self.model.dof_damping,
             )  # fmt: skip
             self._fixed_for = data
         return self._fixed
@@ -247,11 +258,11 @@ class ControllerRuntime:
         """The Cartesian forces of the last step (for overlays and metrics)."""
         if self._last is None:
             slots = self.program.slots
-            bodies = self._tables["slot_body"].reshape(-1)
+            bodies = self._arrays["slot_body"].reshape(-1)
             self._last = AppliedForces(
                 bodies,
-                self._state["slot_point"].reshape(-1, 3).copy(),
-                self._state["slot_force"].reshape(-1, 3).copy(),
+                self._arrays["slot_point"].reshape(-1, 3).copy(),
+                self._arrays["slot_force"].reshape(-1, 3).copy(),
                 self._animal_of_body[bodies],
                 [kind for _, kind in slots for _ in range(self.n)],
             )
@@ -267,9 +278,9 @@ class ControllerRuntime:
         Before the first step, the sensors are measured now (and that value starts their
         smoothing).
         """
-        if not self._state["sensor_ready"].all():
+        if not self._arrays["sensor_ready"].all():
             self._run(data, self.program.sensor_end, finish=False)
-        registers = self._state["registers"]
+        registers = self._registers
         return {name: registers[r].copy() if vector else registers[r, :, 0].copy() for name, (r, vector) in self.program.sensors.items()}
 
     def frame_values(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
@@ -302,20 +313,20 @@ class ControllerRuntime:
         old, new = previous.program, self.program
         for row, name in enumerate(old.cycles):
             if name in new.cycles:
-                self._state["phase"][new.cycles.index(name)] = previous._state["phase"][row]
+                self._arrays["phase"][new.cycles.index(name)] = previous._arrays["phase"][row]
         for row, (machine, old_names) in enumerate(old.machines.items()):
             names = new.machines.get(machine)
             if names is None:
                 continue
             mine = list(new.machines).index(machine)
-            for animal, index in enumerate(previous._state["state"][row]):
+            for animal, index in enumerate(previous._arrays["state"][row]):
                 if old_names[index] in names:
-                    self._state["state"][mine, animal] = names.index(old_names[index])
-                    self._state["time_in_state"][mine, animal] = previous._state["time_in_state"][row, animal]
+                    self._arrays["state"][mine, animal] = names.index(old_names[index])
+                    self._arrays["time_in_state"][mine, animal] = previous._arrays["time_in_state"][row, animal]
         for row, name in enumerate(old.sensors):
-            if name in new.sensors and previous._state["sensor_ready"][row]:
-                self._state["registers"][new.sensors[name][0]] = previous._state["registers"][old.sensors[name][0]]
-                self._state["sensor_ready"][list(new.sensors).index(name)] = True
+            if name in new.sensors and previous._arrays["sensor_ready"][row]:
+                self._registers[new.sensors[name][0]] = previous._registers[old.sensors[name][0]]
+                self._arrays["sensor_ready"][list(new.sensors).index(name)] = True
 
     def force_state(self, machine: str, state: str) -> None:
         """Put every animal's `machine` in `state`, its time in state back to 0.
@@ -327,13 +338,13 @@ class ControllerRuntime:
         if state not in names:
             raise KeyError(state)
         row = list(self.program.machines).index(machine)
-        self._state["state"][row] = names.index(state)
-        self._state["time_in_state"][row] = 0.0
+        self._arrays["state"][row] = names.index(state)
+        self._arrays["time_in_state"][row] = 0.0
 
     def state_of(self, machine: str) -> list[str]:
         """The current state of a machine, per animal."""
         names = self.program.machines[machine]
-        return [names[i] for i in self._state["state"][list(self.program.machines).index(machine)]]
+        return [names[i] for i in self._arrays["state"][list(self.program.machines).index(machine)]]
 
 
 def build_runtime(

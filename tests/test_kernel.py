@@ -90,11 +90,11 @@ def probe_controller(folder: Path) -> Path:
 def reference_env(runtime: ControllerRuntime, data: mujoco.MjData) -> dict[str, np.ndarray]:
     """The env the numpy evaluator reads, from the runtime's own state after its step."""
     phase_row = runtime.program.cycles.index("clock")
-    contacts = runtime._state["contact"][:, 0] > 0.5
+    contacts = runtime._arrays["contact"][:, 0] > 0.5
     return {
         "t": np.full(runtime.n, data.time),
         X.HEADING_FRAME_KEY: runtime.heading_frames(data),
-        "phase:clock": runtime._state["phase"][phase_row] % 1.0,
+        "phase:clock": runtime._arrays["phase"][phase_row] % 1.0,
         "contact:lf": contacts,
         "sensor:tilt": runtime.sensor_values(data)["tilt"],
     }

@@ -8,6 +8,8 @@ boxes and planes are built here with one normal per face (flat shading).
 
 from __future__ import annotations
 
+import functools
+
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -59,9 +61,19 @@ class TriangleMesh:
 
 def shape_mesh(shape: Shape) -> TriangleMesh:
     """A shape as a mesh in its owner's frame (its `pos` and `quat` applied)."""
-    vertices, normals, faces = _BUILDERS[shape.kind](shape.size)
+    vertices, normals, faces = _geometry(shape.kind, tuple(float(x) for x in shape.size))
     colors = np.tile(np.asarray(shape.rgba, dtype=float), (len(vertices), 1))
     return TriangleMesh(vertices, normals, colors, faces).transformed(shape.pos, shape.quat)
+
+
+@functools.lru_cache(maxsize=1024)
+def _geometry(kind: str, size: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The vertices, normals and faces of a shape at the origin, built once per size (a bake
+    writing a .glb and a .usdc meshes the same bones twice). The arrays are read-only."""
+    arrays = _BUILDERS[kind](size)
+    for array in arrays:
+        array.flags.writeable = False
+    return arrays
 
 
 def merge(meshes: Sequence[TriangleMesh]) -> TriangleMesh:
