@@ -3,7 +3,10 @@
 What `quadpipe analyze run.npz` reports, per animal of the clip:
 
 - **Footfalls** from the clip's per-frame foot contacts, debounced: a contact or a gap lasting
-  less than `MIN_RUN_S` (two frames at 30 fps) is a flicker and does not count.
+  less than `MIN_RUN_NATURAL_TIMES` of the animal's natural time `sqrt(HP / g)` (a dog's two
+  frames at 30 fps: 67 ms for the dog, 13 ms for the rat) is a flicker and does not count.
+  A clip with too few frames per natural time for the animal (a rat at 30 fps) gets a note
+  naming the frame rate to record at.
 - **Stride** from the left hind foot (the reference, as in Hildebrand's diagrams): the period
   is the median time between its successive touchdowns; speed, stride length and Froude number
   come from the pelvis's horizontal travel over those whole strides.
@@ -29,9 +32,10 @@ from typing import Any
 import numpy as np
 
 from quadpipe import roles as R
+from quadpipe.animals import REFERENCE_HP_M
 from quadpipe.clip import AnimalTrack, Clip
 from quadpipe.errors import QuadpipeError, did_you_mean
-from quadpipe.sizing import GRAVITY
+from quadpipe.sizing import GRAVITY, natural_time
 
 REFERENCE_LEG = "lh"
 """The foot whose touchdowns start every stride (phase 0), as in Hildebrand's gait diagrams."""
@@ -42,11 +46,16 @@ HILDEBRAND_ORDER: tuple[str, ...] = ("lh", "lf", "rf", "rh")
 TOE_BONES: dict[str, str] = {leg: f"{leg}_{(R.FRONT_CHAIN if leg.endswith('f') else R.HIND_CHAIN)[-1]}" for leg in R.LEGS}
 """The last phalanx of each leg, whose far end is the toe tip."""
 
-MIN_RUN_S = 2.0 / 30.0
-"""A contact or a gap shorter than this (two frames at the thesis's 30 fps) is a flicker, seconds."""
+MIN_RUN_NATURAL_TIMES = (2.0 / 30.0) / natural_time(REFERENCE_HP_M)
+"""A contact or a gap shorter than this many natural times sqrt(HP / g) is a flicker: the
+thesis dog's two frames at 30 fps (0.26 natural time; 67 ms for the dog)."""
 
 MIN_RUN_FRAMES = 2
 """Runs shorter than this many frames are flickers whatever the frame rate."""
+
+MIN_FRAMES_PER_NATURAL_TIME = 6.0
+"""Below this many frames per natural time sqrt(HP / g), footfalls are not resolved (a dog at
+30 fps has 7.8; a rat at 30 fps, 2): the report says which frame rate to record at."""
 
 SCUFF_FRACTION = 0.4
 """A contact shorter than this fraction of the foot's typical stance is a scuff (a toe dragging
@@ -326,9 +335,21 @@ def analyze_clip(clip: Clip, animal: str | None = None) -> GaitReport:
     return GaitReport(clip.fps, clip.frame_count, tuple(_analyze_track(clip, track) for track in tracks))
 
 
-def min_run_frames(fps: float) -> int:
-    """Shortest contact or gap that counts at this frame rate, in frames."""
-    return max(MIN_RUN_FRAMES, round(MIN_RUN_S * fps))
+def min_run_frames(fps: float, pelvis_height: float) -> int:
+    """Shortest contact or gap that counts at this frame rate for an animal of this HP, in frames."""
+    return max(MIN_RUN_FRAMES, round(MIN_RUN_NATURAL_TIMES * natural_time(pelvis_height) * fps))
+
+
+def frame_rate_note(fps: float, pelvis_height: float) -> str | None:
+    """A note when the clip has too few frames per natural time to resolve footfalls."""
+    own = natural_time(pelvis_height)
+    if fps * own >= MIN_FRAMES_PER_NATURAL_TIME:
+        return None
+    needed = math.ceil(MIN_FRAMES_PER_NATURAL_TIME / own / 10.0) * 10
+    return (
+        f"{fps * own:.1f} frames per natural time sqrt(HP/g) = {own * 1000:.0f} ms: too few to resolve footfalls;"
+        f" record at {needed:g} fps or more (quadpipe simulate --fps)"
+    )
 
 
 def debounce(contact: np.ndarray, min_frames: int) -> np.ndarray:
@@ -403,7 +424,10 @@ def _analyze_track(clip: Clip, track: AnimalTrack) -> AnimalGait:
     notes = []
     if frames < track.positions.shape[0]:
         notes.append(f"poses are not finite from frame {frames} on: only frames 0-{frames - 1} are analysed")
-    min_frames = min_run_frames(clip.fps)
+    coarse = frame_rate_note(clip.fps, track.pelvis_height)
+    if coarse is not None:
+        notes.append(coarse)
+    min_frames = min_run_frames(clip.fps, track.pelvis_height)
     contacts = {leg: drop_scuffs(debounce(track.foot_contacts[:frames, i], min_frames)) for i, leg in enumerate(R.LEGS)}
     tips = toe_tips(track, frames)
     footfalls = {leg: _footfalls(contacts[leg], tips[leg]) for leg in R.LEGS}

@@ -78,3 +78,17 @@ def write_bytes(path: str | Path, data: bytes) -> None:
     """Write a binary file atomically."""
     with atomic_output(path, "wb") as stream:
         stream.write(data)
+
+
+def check_writable(path: str | Path) -> None:
+    """Fail early, before a long simulation, if a file cannot be written at `path`.
+
+    Raises:
+        QuadpipeError: `unwritable-output`: a folder, or a file in a folder that does not
+            exist or is not writable.
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir() or not folder.is_dir() or not os.access(folder, os.W_OK):
+        problem = "is a folder" if path.is_dir() else "is in a folder that does not exist or is not writable"
+        raise QuadpipeError.single("unwritable-output", f"{str(path)!r} {problem}", file=str(path), hint="check the output path")

@@ -12,9 +12,12 @@ import json
 import sys
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import TYPE_CHECKING, Annotated, Optional
 
 import typer
+
+if TYPE_CHECKING:
+    from quadpipe.clip import Clip
 
 app = typer.Typer(
     name="quadpipe",
@@ -273,6 +276,9 @@ SceneOpt = Annotated[str, typer.Option("--scene", help="Scene name or file: terr
 SecondsOpt = Annotated[float, typer.Option("--seconds", "-s", min=0.0, help="Simulated time.")]
 SetOpt = Annotated[Optional[list[str]], typer.Option("--set", help="Override a controller parameter: NAME=VALUE (repeatable).")]
 MetricsOpt = Annotated[Optional[Path], typer.Option("--metrics", help="Metrics JSON (default: beside the first output).")]
+FpsOpt = Annotated[float, typer.Option("--fps", min=1.0, help="Recorded frames per second; must divide the physics rate (120 for most animals).")]
+GaitReportOpt = Annotated[Optional[Path], typer.Option("--gait-report", help="Also write the gait analysis (as `quadpipe analyze -o`) to this JSON file.")]
+DiagramOpt = Annotated[Optional[Path], typer.Option("--diagram", help="Also draw the footfall (Hildebrand) diagram to this PNG file.")]
 
 
 @app.command()
@@ -284,12 +290,15 @@ def simulate(
     output: Annotated[Path, typer.Option("-o", "--output", help="Clip to write (.npz, or any bake format).")] = Path("run.npz"),
     metrics: MetricsOpt = None,
     parameters: SetOpt = None,
+    fps: FpsOpt = 30.0,
+    gait_report: GaitReportOpt = None,
+    diagram: DiagramOpt = None,
 ) -> None:
     """Simulate an animal under a controller and write the clip and its metrics.
 
-    Example: quadpipe simulate --animal dog --controller spine_walk --scene hill --seconds 10 -o run.npz
+    Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png
     """
-    _run_and_write(animal, controller, scene, seconds, [output], metrics, parameters)
+    _run_and_write(animal, controller, scene, seconds, [output], metrics, parameters, fps, gait_report, diagram)
 
 
 @app.command()
@@ -301,25 +310,44 @@ def bake(
     seconds: SecondsOpt = 10.0,
     metrics: MetricsOpt = None,
     parameters: SetOpt = None,
+    fps: FpsOpt = 30.0,
+    gait_report: GaitReportOpt = None,
+    diagram: DiagramOpt = None,
 ) -> None:
     """Simulate once and bake the motion into every requested file; the suffix picks the format.
 
     Formats: .glb .gltf (glTF 2.0), .usda .usdc .usdz (OpenUSD), .bvh, .npz (raw clip).
-    Example: quadpipe bake --animal horse --controller spine_walk --scene hill -o horse.glb -o horse.usdc
+    Example: quadpipe bake --animal horse --controller trot --scene hill -o horse.glb -o horse.usdc --gait-report horse.gait.json
     """
-    _run_and_write(animal, controller, scene, seconds, outputs, metrics, parameters)
+    _run_and_write(animal, controller, scene, seconds, outputs, metrics, parameters, fps, gait_report, diagram)
 
 
 def _run_and_write(
-    animal: str, controller: str, scene: str, seconds: float, outputs: list[Path], metrics: Path | None, parameters: list[str] | None
+    animal: str,
+    controller: str,
+    scene: str,
+    seconds: float,
+    outputs: list[Path],
+    metrics: Path | None,
+    parameters: list[str] | None,
+    fps: float,
+    gait_report: Path | None,
+    diagram: Path | None,
 ) -> None:
-    from quadpipe.atomic import write_text
+    from quadpipe.atomic import check_writable, write_text
     from quadpipe.exporters import check_output_path, export_clip
     from quadpipe.simulate import simulate as run_simulation
 
     for output in outputs:
         check_output_path(output)
-    result = run_simulation(animal, controller, seconds=seconds, scene=scene, parameters=_parameters(parameters))
+    for extra in (metrics, gait_report, diagram):
+        if extra is not None:
+            check_writable(extra)
+    if diagram is not None:
+        from quadpipe.analysis import check_diagram_path
+
+        check_diagram_path(diagram)
+    result = run_simulation(animal, controller, seconds=seconds, scene=scene, parameters=_parameters(parameters), fps=fps)
     for output in outputs:
         export_clip(result.clip, output)
     metrics_path = metrics or outputs[0].with_suffix(".metrics.json")
@@ -330,6 +358,8 @@ def _run_and_write(
             f"  {name}: {figures['distance_hp']:.2f} HP travelled, pelvis {figures['pelvis_height_min_hp']:.2f}-"
             f"{figures['pelvis_height_max_hp']:.2f} HP{', FELL' if figures['fell'] else ''}"
         )
+    if gait_report is not None or diagram is not None:
+        _write_gait_analysis(result.clip, gait_report, diagram)
 
 
 @app.command()
@@ -447,6 +477,20 @@ def analyze(
     if output is not None:
         write_text(output, json.dumps(report.to_dict(), indent=2, allow_nan=False) + "\n")
         typer.echo(f"wrote {output}")
+    if diagram is not None:
+        draw_footfall_diagram(report, diagram)
+        typer.echo(f"wrote {diagram}")
+
+
+def _write_gait_analysis(clip: Clip, report_path: Path | None, diagram: Path | None) -> None:
+    """The gait analysis of a fresh clip, as `quadpipe analyze` writes it."""
+    from quadpipe.analysis import analyze_clip, draw_footfall_diagram
+    from quadpipe.atomic import write_text
+
+    report = analyze_clip(clip)
+    if report_path is not None:
+        write_text(report_path, json.dumps(report.to_dict(), indent=2, allow_nan=False) + "\n")
+        typer.echo(f"wrote {report_path}")
     if diagram is not None:
         draw_footfall_diagram(report, diagram)
         typer.echo(f"wrote {diagram}")

@@ -20,6 +20,12 @@ from quadpipe.errors import QuadpipeError
 from quadpipe.recording import Recorder
 from quadpipe.world import Placement
 
+FPS_TOLERANCE = 1e-9
+"""Relative difference below which a frame rate divides the physics rate."""
+
+MIN_SUGGESTED_FPS = 10
+"""Frame rates below this are not suggested when a frame rate is refused."""
+
 FAR_AWAY_HP = 1000.0
 """A body farther than this many pelvis heights from the origin has been flung away: a blow-up."""
 
@@ -61,11 +67,6 @@ class Run:
     controllers: list[Controller] = field(default_factory=list)
     events: list[Callable[[mujoco.MjModel, mujoco.MjData], None]] = field(default_factory=list)
 
-    @property
-    def steps_per_frame(self) -> int:
-        """Physics steps per 1/30 s frame (4 at 1/120 s; more with substeps)."""
-        return round(1.0 / (sizing.FRAME_RATE * self.model.opt.timestep))
-
     def step(self) -> None:
         """One physics step: events, then `mj_step1`, controllers on the current state, `mj_step2`."""
         for event in self.events:
@@ -78,32 +79,54 @@ class Run:
         mujoco.mj_step2(self.model, self.data)
 
 
+def frame_steps(timestep: float, fps: float) -> int:
+    """Physics steps per recorded frame: the physics rate divided by `fps`.
+
+    Raises:
+        QuadpipeError: `fps` does not divide the physics rate (1 / timestep), or exceeds it.
+    """
+    rate = 1.0 / timestep
+    steps = round(rate / fps) if fps > 0 else 0
+    if steps >= 1 and abs(rate / steps - fps) <= FPS_TOLERANCE * fps:
+        return steps
+    choices = [rate / k for k in range(1, round(rate) + 1) if (rate / k).is_integer() and rate / k >= MIN_SUGGESTED_FPS]
+    raise QuadpipeError.single(
+        "bad-fps",
+        f"{fps:g} frames per second does not divide this simulation's {rate:g} physics steps per second",
+        hint=f"record at one of {', '.join(f'{c:g}' for c in sorted(choices))} fps",
+    )
+
+
 def run_frames(
     run: Run,
     seconds: float,
     metadata: dict[str, str] | None = None,
     on_frame: Callable[[float], None] | None = None,
+    fps: float = sizing.FRAME_RATE,
 ) -> Clip:
-    """Simulate `seconds` and record one frame every 1/30 s (the first frame is the start).
+    """Simulate `seconds` and record one frame every 1/fps s (the first frame is the start).
 
     Args:
         run: the prepared world.
         seconds: simulated time.
         metadata: kept in the clip.
         on_frame: called with the simulated time after every frame (progress, interruption).
+        fps: recorded frames per second; must divide the physics rate (see `frame_steps`).
 
     Raises:
         SimulationBlowUp: on a NaN, a bad-acceleration warning or a body flung far away.
+        QuadpipeError: `fps` does not divide the physics rate.
     """
-    recorder = Recorder(run.model, run.placements, sizing.FRAME_RATE)
-    frames = round(seconds * sizing.FRAME_RATE)
+    steps = frame_steps(run.model.opt.timestep, fps)
+    recorder = Recorder(run.model, run.placements, fps)
+    frames = round(seconds * fps)
     far = FAR_AWAY_HP * max(p.built.animal.pelvis_height for p in run.placements)
     mujoco.mj_forward(run.model, run.data)
     recorder.capture(run.data, frame_values(run))
     for frame in range(1, frames + 1):
-        for _ in range(run.steps_per_frame):
+        for _ in range(steps):
             run.step()
-        check_health(run, frame, far)
+        check_health(run, frame, far, fps)
         recorder.capture(run.data, frame_values(run))
         if on_frame is not None:
             on_frame(run.data.time)
@@ -120,7 +143,7 @@ def frame_values(run: Run) -> dict[str, np.ndarray]:
     return values
 
 
-def check_health(run: Run, frame: int, far: float) -> None:
+def check_health(run: Run, frame: int, far: float, fps: float = sizing.FRAME_RATE) -> None:
     """Raise `SimulationBlowUp` if the state is not finite, MuJoCo warned, or a body flew away."""
     data = run.data
     problem = None
@@ -135,7 +158,7 @@ def check_health(run: Run, frame: int, far: float) -> None:
     names = ", ".join(c.name for c in run.controllers) or "no controller"
     raise SimulationBlowUp.single(
         "simulation-blew-up",
-        f"the simulation blew up at frame {frame} (t = {frame / sizing.FRAME_RATE:.2f} s) under {names}: {problem}",
+        f"the simulation blew up at frame {frame} (t = {frame / fps:.2f} s) under {names}: {problem}",
         hint="forces are too strong for this animal or step: lower the controller's strengths, or check the scene",
     )
 
@@ -165,6 +188,7 @@ def simulate(
     parameters: dict[str, str] | None = None,
     extra_controllers: Sequence[Controller] = (),
     on_frame: Callable[[float], None] | None = None,
+    fps: float = sizing.FRAME_RATE,
 ) -> Result:
     """Build an animal (and scene), run a controller on it, and return the clip and its metrics.
 
@@ -176,6 +200,8 @@ def simulate(
         parameters: controller parameter overrides (YAML values: "2 HP", "[1, 0, 0]").
         extra_controllers: more `Controller`s run after the main one (tests push with these).
         on_frame: called with the simulated time after every frame (progress, interruption).
+        fps: recorded frames per second (30, the thesis's; a rat's walk needs more to be
+            analysed: its stride lasts 0.17 s).
     """
     from quadpipe.animals import load_animal
     from quadpipe.model import build_animal
@@ -195,7 +221,7 @@ def simulate(
     controllers = ([runtime] if runtime else []) + list(extra_controllers)
     run = Run(model, data, setup.placements, controllers, events=setup.events(model))
     metadata = {"controller": controller or "none", "scene": scene_spec.name, "animal": built.animal.name}
-    clip = run_frames(run, seconds, metadata, on_frame)
+    clip = run_frames(run, seconds, metadata, on_frame, fps)
     return Result(clip, clip_metrics(clip), runtime)
 
 

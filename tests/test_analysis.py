@@ -395,3 +395,44 @@ def test_a_simulated_dog_walk_is_recognised_as_a_walk():
     assert abs(dog.stride_period_s - SPINE_WALK_PERIOD_S) <= 2 * FRAME_S
     assert dog.stride_count >= 3
     assert dog.speed_m_s > 0.0 and dog.froude == pytest.approx(dog.speed_m_s**2 / (GRAVITY * dog.pelvis_height))
+
+
+# --- Frame rates and analysis from simulate / bake ----------------------------------------------------
+
+
+def test_a_higher_frame_rate_records_the_same_motion_more_often():
+    from quadpipe.simulate import simulate
+
+    thirty = simulate("dog", "walk", seconds=1.0).clip
+    hundred_twenty = simulate("dog", "walk", seconds=1.0, fps=120).clip
+    assert hundred_twenty.fps == 120 and hundred_twenty.frame_count == 121
+    np.testing.assert_array_equal(hundred_twenty.animals[0].positions[::4], thirty.animals[0].positions)
+
+
+def test_a_frame_rate_that_does_not_divide_the_physics_rate_is_refused_before_anything_is_written(cli, tmp_path):
+    result = cli("simulate", "--animal", "dog", "--controller", "walk", "--seconds", "1", "--fps", "50", "-o", str(tmp_path / "walk.npz"))
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert "error bad-fps: 50 frames per second does not divide this simulation's 120 physics steps per second" in result.stderr
+    assert "record at one of 10, 12, 15, 20, 24, 30, 40, 60, 120 fps" in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bake_writes_the_gait_report_and_diagram_of_its_clip(cli, tmp_path):
+    from quadpipe.exporters.npz import load_clip
+
+    clip, report, diagram = tmp_path / "rat.npz", tmp_path / "rat.gait.json", tmp_path / "rat.png"
+    result = cli("bake", "--animal", "rat", "--controller", "walk", "--seconds", "4", "--fps", "120",
+                 "-o", str(clip), "--gait-report", str(report), "--diagram", str(diagram))
+    assert result.returncode == 0, result.stderr
+    written = json.loads(report.read_text())
+    expected = A.analyze_clip(load_clip(clip))
+    assert written == json.loads(json.dumps(expected.to_dict()))
+    rat = expected.animals[0]
+    assert rat.gait.label == "lateral-sequence walk", rat.gait.reason  # 120 fps resolves a rat's 0.17 s stride
+    assert Image.open(diagram).size == A.diagram_size(expected)
+
+
+def test_a_wrong_diagram_suffix_is_refused_before_simulating(cli, tmp_path):
+    result = cli("simulate", "--animal", "dog", "--seconds", "30", "-o", str(tmp_path / "run.npz"), "--diagram", str(tmp_path / "d.jpg"))
+    assert result.returncode == 1 and "error unsupported-diagram-format" in result.stderr
+    assert list(tmp_path.iterdir()) == []

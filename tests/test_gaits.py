@@ -1,13 +1,12 @@
 """Gaits on demand: walk, trot, pace and auto_gait (configs/controllers, on the `locomotion` base).
 
 Every gait runs unchanged on all ten animals, from the rat to the elephant. Footfalls are
-measured with `quadpipe.analysis` on clips recorded in each animal's own time: the clip
-has as many frames per natural time sqrt(HP / g) as the dog's 30 fps clip, and it is
-analysed on the dog's time scale. Phases, duty factors and relative stride lengths are
-ratios and do not change; the Froude number is scaled back. This is what lets the rat be
-measured at all: its walk cycle lasts 0.17 s (5 frames at 30 fps), and its swing is
-shorter than the analysis's 2/30 s flicker filter. The first natural times of every run
-(the animal settling into its gait) are not recorded.
+measured with `quadpipe.analysis` on clips recorded in each animal's own time: each clip
+has as many frames per natural time sqrt(HP / g) as the dog's 30 fps clip (the rat's about
+150 fps, the elephant's 13), so that every stride has as many frames, and the analysis
+filters flickers in natural time too. This is what lets the rat be measured at all: its
+walk cycle lasts 0.17 s, 5 frames at 30 fps. The first natural times of every run (the
+animal settling into its gait) are not recorded.
 
 Thresholds are in HP and cycles, so they mean the same for every animal.
 """
@@ -80,11 +79,11 @@ def known_miss(animal: str, gait: str) -> list:
 
 
 class NaturalTimeRecorder:
-    """An extra controller that records the animal as the dog's 30 fps clip would be, in its time.
+    """An extra controller that records the animal with as many frames per natural time as
+    the dog's 30 fps clip has (7.8).
 
     It captures every `steps` physics steps (as close as the step allows to 1 / 7.8 natural
-    time) from `start_s` to `stop_s`, into a clip whose frame rate is given on the dog's time
-    scale.
+    time) from `start_s` to `stop_s`.
     """
 
     name = "natural-time recorder"
@@ -96,9 +95,9 @@ class NaturalTimeRecorder:
 
     def apply(self, model, data) -> None:
         if self.recorder is None:
-            self.time_scale = own_time("dog") / own_time(self.animal)
-            self.steps = max(1, round(1.0 / (DOG_FPS * self.time_scale * model.opt.timestep)))
-            fps = 1.0 / (self.steps * model.opt.timestep * self.time_scale)
+            frames_per_natural_time = DOG_FPS * own_time("dog")
+            self.steps = max(1, round(own_time(self.animal) / (frames_per_natural_time * model.opt.timestep)))
+            fps = 1.0 / (self.steps * model.opt.timestep)
             self.recorder = Recorder(model, [Placement(self.animal, built_animal(self.animal))], fps)
         if self.start_s <= data.time <= self.stop_s and self.step % self.steps == 0:
             self.recorder.capture(data)
@@ -110,16 +109,16 @@ class NaturalTimeRecorder:
 
 @dataclasses.dataclass(frozen=True)
 class Measured:
-    """A gait as measured: the analysis (on the dog's time scale) and the true Froude number."""
+    """A gait as measured: the analysis and its Froude number."""
 
     gait: A.AnimalGait
     froude: float
 
     @classmethod
     def of(cls, recorder: NaturalTimeRecorder) -> "Measured":
-        """The gait a recorder captured, its Froude number scaled back to the animal's time."""
+        """The gait a recorder captured."""
         gait = A.analyze_clip(recorder.clip()).animals[0]
-        return cls(gait, (gait.froude or 0.0) * recorder.time_scale**2)
+        return cls(gait, gait.froude or 0.0)
 
 
 def measure(animal: str, controller: str, **parameters: str) -> Measured:
@@ -246,7 +245,7 @@ AUTO_RAMP = {"ramp_start": "16 * natural_time", "ramp_end": "24 * natural_time"}
 
 
 def window(clip: Clip, start_s: float, stop_s: float) -> Clip:
-    """The frames of a clip between two times (on the clip's own time scale)."""
+    """The frames of a clip between two times, seconds."""
     frames = slice(round(start_s * clip.fps), round(stop_s * clip.fps) + 1)
     tracks = [dataclasses.replace(t, positions=t.positions[frames], rotations=t.rotations[frames],
                                   foot_contacts=t.foot_contacts[frames]) for t in clip.animals]
@@ -261,8 +260,8 @@ def auto_gait_run(animal: str) -> tuple[dict, dict[str, A.AnimalGait]]:
     recorder = NaturalTimeRecorder(animal, 0.0)
     result = simulate(animal, "auto_gait", seconds=AUTO_NATURAL_TIMES["trot"][1] * own_time(animal),
                       parameters={"goal": FAR_GOAL, **AUTO_RAMP}, extra_controllers=[recorder])
-    clip, dog_time = recorder.clip(), own_time("dog")
-    gaits = {name: A.analyze_clip(window(clip, start * dog_time, stop * dog_time)).animals[0]
+    clip, time = recorder.clip(), own_time(animal)
+    gaits = {name: A.analyze_clip(window(clip, start * time, stop * time)).animals[0]
              for name, (start, stop) in AUTO_NATURAL_TIMES.items()}
     return result.metrics["animals"][animal], gaits
 

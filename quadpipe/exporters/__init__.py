@@ -14,7 +14,6 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import inspect
-import os
 from dataclasses import dataclass
 from importlib import import_module
 from pathlib import Path
@@ -22,6 +21,7 @@ from typing import Callable
 
 import numpy as np
 
+from quadpipe.atomic import check_writable
 from quadpipe.clip import Clip
 from quadpipe.errors import QuadpipeError
 
@@ -110,12 +110,7 @@ def check_output_path(path: str | Path) -> None:
     """
     path = Path(path)
     _writer_for(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    if path.is_dir() or not folder.is_dir() or not os.access(folder, os.W_OK):
-        problem = "is a folder" if path.is_dir() else "is in a folder that does not exist or is not writable"
-        raise QuadpipeError.single(
-            "unwritable-output", f"{str(path)!r} {problem}", file=str(path), hint="check the output path"
-        )
+    check_writable(path)
 
 
 def _writer_for(path: Path) -> tuple[ExportFormat, Exporter]:
