@@ -8,6 +8,7 @@ each driven as they would be alone.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import mujoco
@@ -76,6 +77,9 @@ def probe_controller(folder: Path) -> Path:
     elements = [
         {"type": "cycle", "name": "clock", "sites": {"pelvis.mid": 0}, "period": "0.8 s", "strength": "0 N"},
         {"type": "sensor", "name": "tilt", "kind": "balance", "at": "thorax.mid", "smoothing": "0.05 s"},
+        {"type": "sensor", "name": "hip_height", "kind": "height", "at": "pelvis.mid"},
+        {"type": "sensor", "name": "ground", "kind": "contact_normal"},
+        {"type": "sensor", "name": "hip_velocity", "kind": "velocity", "at": "pelvis.mid"},
     ]
     for name, text in PROBES.items():
         elements.append({
@@ -131,6 +135,40 @@ def test_the_kernel_computes_every_function_as_the_reference_does(tmp_path: Path
 
 FAR_GOAL = {"goal": "[100000 HP, 0, 0]"}
 """Straight ahead of each animal, so far that where it starts makes no difference."""
+
+
+RAMP_DEG = 10.0
+RAMP_START_HP = -6.0
+
+
+def ramp_scene(folder: Path) -> Path:
+    """A 10 degree ramp rising along +x, under the animal from the start."""
+    path = folder / "ramp.yaml"
+    terrain = [{"type": "slope", "start": f"{RAMP_START_HP} HP", "angle": f"{RAMP_DEG} deg", "length": "12 HP", "top": "2 HP", "width": "8 HP"}]
+    path.write_text(yaml.safe_dump({"schema": 1, "name": "ramp", "terrain": terrain}, sort_keys=False))
+    return path
+
+
+def test_sensors_measure_what_they_say(tmp_path: Path) -> None:
+    built = built_animal("dog")
+    setup = build_scene(load_scene(str(ramp_scene(tmp_path))), built)
+    model, compiled = setup.spec.compile(), compile_controller(load_controller(str(probe_controller(tmp_path))), scale_for_animals([built.animal]))
+    data = mujoco.MjData(model)
+    runtime = ControllerRuntime(compiled, model, setup.placements)
+    while True:  # a passive dog falls onto the ramp: until its feet touch it
+        mujoco.mj_step1(model, data)
+        runtime.apply(model, data)
+        if runtime._arrays["contact"].any() or data.time > 1.0:
+            break
+        data.xfrc_applied[:] = 0.0
+        mujoco.mj_step2(model, data)
+    sensors, hip = runtime.sensor_values(data), runtime.point(data, "pelvis.mid")
+    slope = math.tan(math.radians(RAMP_DEG))
+    ground_below = (hip[:, 0] - RAMP_START_HP * built.animal.pelvis_height) * slope
+    assert runtime._arrays["contact"].any(), "a foot on the ramp"
+    assert sensors["hip_height"] == pytest.approx(hip[:, 2] - ground_below, abs=1e-6)
+    np.testing.assert_allclose(sensors["ground"], [[-math.sin(math.radians(RAMP_DEG)), 0.0, math.cos(math.radians(RAMP_DEG))]], atol=1e-6)
+    np.testing.assert_allclose(sensors["hip_velocity"], runtime.point_velocity(data, "pelvis.mid"), atol=1e-12)
 
 
 def pair_scene(folder: Path) -> Path:
