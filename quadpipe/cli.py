@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Annotated, Optional
 import typer
 
 if TYPE_CHECKING:
-    from quadpipe.clip import Clip
+    from quadpipe.analysis import GaitReport
 
 app = typer.Typer(
     name="quadpipe",
@@ -359,7 +359,9 @@ def _run_and_write(
             f"{figures['pelvis_height_max_hp']:.2f} HP{', FELL' if figures['fell'] else ''}"
         )
     if gait_report is not None or diagram is not None:
-        _write_gait_analysis(result.clip, gait_report, diagram)
+        from quadpipe.analysis import analyze_clip
+
+        _write_gait_report(analyze_clip(result.clip), gait_report, diagram)
 
 
 @app.command()
@@ -466,28 +468,21 @@ def analyze(
 
     Example: quadpipe analyze run.npz -o report.json --diagram footfalls.png
     """
-    from quadpipe.analysis import analyze_clip, check_diagram_path, draw_footfall_diagram, format_report
-    from quadpipe.atomic import write_text
+    from quadpipe.analysis import analyze_clip, check_diagram_path, format_report
     from quadpipe.exporters.npz import load_clip
 
     if diagram is not None:
         check_diagram_path(diagram)
     report = analyze_clip(load_clip(clip), animal)
     typer.echo(format_report(report))
-    if output is not None:
-        write_text(output, json.dumps(report.to_dict(), indent=2, allow_nan=False) + "\n")
-        typer.echo(f"wrote {output}")
-    if diagram is not None:
-        draw_footfall_diagram(report, diagram)
-        typer.echo(f"wrote {diagram}")
+    _write_gait_report(report, output, diagram)
 
 
-def _write_gait_analysis(clip: Clip, report_path: Path | None, diagram: Path | None) -> None:
-    """The gait analysis of a fresh clip, as `quadpipe analyze` writes it."""
-    from quadpipe.analysis import analyze_clip, draw_footfall_diagram
+def _write_gait_report(report: GaitReport, report_path: Path | None, diagram: Path | None) -> None:
+    """Write a gait analysis as JSON and its footfall diagram as PNG (either may be None)."""
+    from quadpipe.analysis import draw_footfall_diagram
     from quadpipe.atomic import write_text
 
-    report = analyze_clip(clip)
     if report_path is not None:
         write_text(report_path, json.dumps(report.to_dict(), indent=2, allow_nan=False) + "\n")
         typer.echo(f"wrote {report_path}")

@@ -306,18 +306,22 @@ def window(clip: Clip, start_s: float, stop_s: float) -> Clip:
     return dataclasses.replace(clip, animals=tracks, props=[], sensors={})
 
 
-@functools.lru_cache(maxsize=None)
-def auto_gait_run(animal: str) -> tuple[dict, dict[str, A.AnimalGait]]:
-    """auto_gait ramping from a walk to a trot: its metrics and the gait of each window."""
+def auto_gait_windows(animal: str, ramp: dict[str, str], windows: dict[str, tuple[float, float]]) -> tuple[dict, dict[str, A.AnimalGait]]:
+    """auto_gait with a ramp of its target: its metrics and the gait of each window (natural times)."""
     from quadpipe.simulate import simulate
 
     recorder = NaturalTimeRecorder(animal, 0.0)
-    result = simulate(animal, "auto_gait", seconds=AUTO_NATURAL_TIMES["trot"][1] * own_time(animal),
-                      parameters={"goal": FAR_GOAL, **AUTO_RAMP}, extra_controllers=[recorder])
+    result = simulate(animal, "auto_gait", seconds=max(stop for _, stop in windows.values()) * own_time(animal),
+                      parameters={"goal": FAR_GOAL, **ramp}, extra_controllers=[recorder])
     clip, time = recorder.clip(), own_time(animal)
-    gaits = {name: A.analyze_clip(window(clip, start * time, stop * time)).animals[0]
-             for name, (start, stop) in AUTO_NATURAL_TIMES.items()}
+    gaits = {name: A.analyze_clip(window(clip, start * time, stop * time)).animals[0] for name, (start, stop) in windows.items()}
     return result.metrics["animals"][animal], gaits
+
+
+@functools.lru_cache(maxsize=None)
+def auto_gait_run(animal: str) -> tuple[dict, dict[str, A.AnimalGait]]:
+    """auto_gait ramping from a walk to a trot: its metrics and the gait of each window."""
+    return auto_gait_windows(animal, AUTO_RAMP, AUTO_NATURAL_TIMES)
 
 
 @pytest.mark.slow
@@ -340,15 +344,7 @@ AUTO_TOP_NATURAL_TIMES = {"trot": (6.0, 16.0), "bound": (30.0, 44.0)}
 @functools.lru_cache(maxsize=None)
 def auto_gait_top_run(animal: str) -> tuple[dict, dict[str, A.AnimalGait]]:
     """auto_gait ramping from a fast trot to a bound: its metrics and the gait of each window."""
-    from quadpipe.simulate import simulate
-
-    recorder = NaturalTimeRecorder(animal, 0.0)
-    result = simulate(animal, "auto_gait", seconds=AUTO_TOP_NATURAL_TIMES["bound"][1] * own_time(animal),
-                      parameters={"goal": FAR_GOAL, **AUTO_TOP_RAMP}, extra_controllers=[recorder])
-    clip, time = recorder.clip(), own_time(animal)
-    gaits = {name: A.analyze_clip(window(clip, start * time, stop * time)).animals[0]
-             for name, (start, stop) in AUTO_TOP_NATURAL_TIMES.items()}
-    return result.metrics["animals"][animal], gaits
+    return auto_gait_windows(animal, AUTO_TOP_RAMP, AUTO_TOP_NATURAL_TIMES)
 
 
 @pytest.mark.slow
