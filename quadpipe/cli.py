@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Annotated, Optional
 
 import typer
 
+from quadpipe.sizing import FRAME_RATE
+
 if TYPE_CHECKING:
     from quadpipe.analysis import GaitReport
 
@@ -290,7 +292,7 @@ def simulate(
     output: Annotated[Path, typer.Option("-o", "--output", help="Clip to write (.npz, or any bake format).")] = Path("run.npz"),
     metrics: MetricsOpt = None,
     parameters: SetOpt = None,
-    fps: FpsOpt = 30.0,
+    fps: FpsOpt = FRAME_RATE,
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
 ) -> None:
@@ -310,7 +312,7 @@ def bake(
     seconds: SecondsOpt = 10.0,
     metrics: MetricsOpt = None,
     parameters: SetOpt = None,
-    fps: FpsOpt = 30.0,
+    fps: FpsOpt = FRAME_RATE,
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
 ) -> None:

@@ -367,15 +367,16 @@ def run(
         elif op == HORIZONTAL:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = reg[a, i, 0], reg[a, i, 1], 0.0
-        elif op == HEADING or op == BODYROT:
+        elif op == HEADING:
             for i in range(n):
                 x, y, z = reg[a, i, 0], reg[a, i, 1], reg[a, i, 2]
                 for k in range(3):
-                    if op == HEADING:
-                        reg[dst, i, k] = heading[i, k, 0] * x + heading[i, k, 1] * y + heading[i, k, 2] * z
-                    else:
-                        body = frame_body[b, i]
-                        reg[dst, i, k] = xmat[body, 3 * k] * x + xmat[body, 3 * k + 1] * y + xmat[body, 3 * k + 2] * z
+                    reg[dst, i, k] = heading[i, k, 0] * x + heading[i, k, 1] * y + heading[i, k, 2] * z
+        elif op == BODYROT:
+            for i in range(n):
+                x, y, z, body = reg[a, i, 0], reg[a, i, 1], reg[a, i, 2], frame_body[b, i]
+                for k in range(3):
+                    reg[dst, i, k] = xmat[body, 3 * k] * x + xmat[body, 3 * k + 1] * y + xmat[body, 3 * k + 2] * z
         elif op == POINT:
             for i in range(n):
                 _point(xpos, xmat, point_body[a, i], point_offset[a, i], reg[dst, i])

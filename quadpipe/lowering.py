@@ -108,20 +108,20 @@ class Program:
 
 @dataclass
 class _Memo:
-    """Registers of values computed so far, and the env keys each one reads."""
+    """The register of each operation computed so far, and the env keys each register reads."""
 
-    registers: dict[Any, int] = field(default_factory=dict)
-    needs: dict[Any, frozenset[str]] = field(default_factory=dict)
+    registers: dict[tuple[int, ...], int] = field(default_factory=dict)
+    needs: dict[int, frozenset[str]] = field(default_factory=dict)
 
     def forget(self, key: str) -> None:
         """Forget every value that reads env key `key` (its value just changed)."""
-        for memo_key in [k for k, needs in self.needs.items() if key in needs]:
-            del self.registers[memo_key], self.needs[memo_key]
+        for operation in [o for o, r in self.registers.items() if key in self.needs[r]]:
+            del self.registers[operation]
 
-    def forget_since(self, keys: set[Any]) -> None:
-        """Forget the values remembered after `keys` was the set of keys (a block ended)."""
-        for memo_key in [k for k in self.registers if k not in keys]:
-            del self.registers[memo_key], self.needs[memo_key]
+    def forget_since(self, operations: set[tuple[int, ...]]) -> None:
+        """Forget the values remembered since `operations` were (a block ended)."""
+        for operation in [o for o in self.registers if o not in operations]:
+            del self.registers[operation]
 
 
 class _Lowerer:
@@ -142,7 +142,6 @@ class _Lowerer:
         self.cycles = [name for name, e in compiled.elements.items() if e.type == "cycle"]
         self.machines = {name: list(m.states) for name, m in compiled.machines.items()}
         self.owner = {element: name for name, m in compiled.machines.items() for element in m.owned}
-        self.register_needs: dict[int, frozenset[str]] = {}
         self.vector: dict[int, bool] = {}
         self.gravity = np.zeros(3)
 
@@ -180,14 +179,13 @@ class _Lowerer:
     def typed_constant(self, value: np.ndarray, typ: X.Type) -> int:
         return self.vector_constant(value) if typ.kind == X.VECTOR else self.scalar_constant(value)
 
-    def shared(self, key: Any, needs: frozenset[str], vector: bool, op: int, a: int = 0, b: int = 0, c: int = 0, flags: int = 0) -> int:
+    def shared(self, needs: frozenset[str], vector: bool, op: int, a: int = 0, b: int = 0, c: int = 0, flags: int = 0) -> int:
         """The register of `op(a, b, c)`: computed once, reused while still valid."""
-        full_key = (key, op, a, b, c)
-        register = self.memo.registers.get(full_key)
+        register = self.memo.registers.get((op, a, b, c))
         if register is None:
             register = self.emit(op, self.new_register(vector), a, b, c, 0, flags)
-            self.memo.registers[full_key] = register
-            self.memo.needs[full_key] = needs
+            self.memo.registers[(op, a, b, c)] = register
+            self.memo.needs[register] = needs
         return register
 
     def op(self, op: int, a: int = 0, b: int = 0, c: int = 0) -> int:
@@ -197,23 +195,18 @@ class _Lowerer:
         (`kernel.VECTOR_RESULT` and the next flags); the others read only their register operands.
         """
         operands = (a, b, c)[: OPERANDS.get(op, 3)]
-        needs = frozenset().union(*(self.register_needs.get(r, frozenset()) for r in operands))
+        needs = frozenset().union(*(self.memo.needs.get(r, frozenset()) for r in operands))
         if op in VECTOR_RESULTS:
             vector, flags = VECTOR_RESULTS[op], 0
         else:
             kinds = [self.vector[r] for r in operands]
             vector = any(kinds[1:]) if op == K.SELECT else any(kinds)
             flags = vector | sum(kind << (index + 1) for index, kind in enumerate(kinds))
-        register = self.shared(None, needs, vector, op, a, b, c, flags)
-        self.register_needs[register] = needs
-        return register
+        return self.shared(needs, vector, op, a, b, c, flags)
 
     def read(self, key: str, op: int, a: int = 0, b: int = 0) -> int:
         """A register holding an env read (a point, a phase...)."""
-        needs = frozenset([key])
-        register = self.shared(key, needs, op in (K.POINT, K.VELOCITY, K.GROUND_NORMAL), op, a, b)
-        self.register_needs[register] = needs
-        return register
+        return self.shared(frozenset([key]), op in (K.POINT, K.VELOCITY, K.GROUND_NORMAL), op, a, b)
 
     def point(self, point: str) -> int:
         return self.read(f"point:{point}", K.POINT, self.point_row(point))
@@ -282,7 +275,7 @@ class _Lowerer:
             return self.point(rest)
         if kind == "sensor":
             register = self.sensors[rest][0]
-            self.register_needs[register] = frozenset([key])
+            self.memo.needs[register] = frozenset([key])
             return register
         if kind == "phase":
             return self.read(key, K.PHASE, self.cycles.index(rest))

@@ -920,6 +920,7 @@ class Compiled:
 
     Call it with an env (see module docstring) to get an array shaped (n,) or (n, 3);
     `constant` holds that array already when the expression needs nothing from the env.
+    `expr` is the checked expression it was compiled from (the kernel lowers that).
     """
 
     type: Type
