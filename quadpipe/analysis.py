@@ -2,9 +2,11 @@
 
 What `quadpipe analyze run.npz` reports, per animal of the clip:
 
-- **Footfalls** from the clip's per-frame foot contacts, debounced: a contact or a gap lasting
+- **Footfalls** from the clip's per-frame foot contacts, cleaned: a contact or a gap lasting
   less than `MIN_RUN_NATURAL_TIMES` of the animal's natural time `sqrt(HP / g)` (a dog's two
-  frames at 30 fps: 67 ms for the dog, 13 ms for the rat) is a flicker and does not count.
+  frames at 30 fps: 67 ms for the dog, 13 ms for the rat) is a flicker and does not count;
+  nor does a scuff (a contact much shorter than the foot's stances) or a bounce (a lift much
+  shorter than its swings).
   A clip with too few frames per natural time for the animal (a rat at 30 fps) gets a note
   naming the frame rate to record at.
 - **Stride** from the left hind foot (the reference, as in Hildebrand's diagrams): the period
@@ -61,7 +63,13 @@ SCUFF_FRACTION = 0.4
 """A contact shorter than this fraction of the foot's typical stance is a scuff (a toe dragging
 during the swing), not a footfall; the typical stance is the 75th percentile of its contacts."""
 
+BOUNCE_FRACTION = 0.4
+"""A lift shorter than this fraction of the foot's typical swing, between two contacts, is a
+bounce (the foot hopping inside one stance), not a step; the typical swing is the 75th
+percentile of its lifts."""
+
 TYPICAL_STANCE_PERCENTILE = 75.0
+"""Percentile of a foot's contact (or lift) lengths taken as its typical stance (or swing)."""
 
 IN_PHASE_TOLERANCE = 0.1
 """Two feet whose touchdowns are at most this far apart (cycles) land together."""
@@ -352,6 +360,15 @@ def frame_rate_note(fps: float, pelvis_height: float) -> str | None:
     )
 
 
+def clean_contacts(contact: np.ndarray, min_frames: int) -> np.ndarray:
+    """One foot's per-frame contacts as footfalls: flickers, then bounces, then scuffs removed.
+
+    Bounces go before scuffs: a foot that touches, hops off and lands for good starts its
+    stance at the first touch, whose short contact would otherwise be dropped as a scuff.
+    """
+    return drop_scuffs(fill_bounces(debounce(contact, min_frames)))
+
+
 def debounce(contact: np.ndarray, min_frames: int) -> np.ndarray:
     """One foot's contacts without flickers: gaps, then contacts, shorter than `min_frames` removed.
 
@@ -373,14 +390,33 @@ def drop_scuffs(contact: np.ndarray, fraction: float = SCUFF_FRACTION) -> np.nda
     The typical stance is the `TYPICAL_STANCE_PERCENTILE`th percentile of its contacts' lengths,
     so that a few scuffs do not lower it.
     """
-    runs = _runs(contact, True)
-    if not runs:
-        return np.asarray(contact, dtype=bool).copy()
-    typical = float(np.percentile([stop - start for start, stop in runs], TYPICAL_STANCE_PERCENTILE))
+    return _drop_short_runs(contact, True, fraction)
+
+
+def fill_bounces(contact: np.ndarray, fraction: float = BOUNCE_FRACTION) -> np.ndarray:
+    """One foot's contacts without bounces: lifts shorter than `fraction` of its typical swing
+    are filled, so that a foot hopping inside its stance makes one footfall, not two.
+
+    Only lifts between two contacts count; the typical swing is the
+    `TYPICAL_STANCE_PERCENTILE`th percentile of those lifts' lengths.
+    """
+    return _drop_short_runs(contact, False, fraction)
+
+
+def _drop_short_runs(contact: np.ndarray, value: bool, fraction: float) -> np.ndarray:
+    """`contact` with the inner runs of `value` shorter than `fraction` of the typical one flipped.
+
+    A run of contacts counts wherever it lies; a run of lifts only between two contacts (the
+    clip's first and last frames may cut a swing short).
+    """
     cleaned = np.asarray(contact, dtype=bool).copy()
+    runs = [(start, stop) for start, stop in _runs(cleaned, value) if value or (start > 0 and stop < len(cleaned))]
+    if not runs:
+        return cleaned
+    typical = float(np.percentile([stop - start for start, stop in runs], TYPICAL_STANCE_PERCENTILE))
     for start, stop in runs:
         if stop - start < fraction * typical:
-            cleaned[start:stop] = False
+            cleaned[start:stop] = not value
     return cleaned
 
 
@@ -428,7 +464,7 @@ def _analyze_track(clip: Clip, track: AnimalTrack) -> AnimalGait:
     if coarse is not None:
         notes.append(coarse)
     min_frames = min_run_frames(clip.fps, track.pelvis_height)
-    contacts = {leg: drop_scuffs(debounce(track.foot_contacts[:frames, i], min_frames)) for i, leg in enumerate(R.LEGS)}
+    contacts = {leg: clean_contacts(track.foot_contacts[:frames, i], min_frames) for i, leg in enumerate(R.LEGS)}
     tips = toe_tips(track, frames)
     footfalls = {leg: _footfalls(contacts[leg], tips[leg]) for leg in R.LEGS}
     strides = np.array([f.touchdown_frame for f in footfalls[REFERENCE_LEG] if f.touchdown_frame is not None], dtype=int)

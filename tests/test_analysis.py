@@ -227,6 +227,28 @@ def test_a_short_scuff_during_the_swing_is_not_a_footfall():
     assert scuffed.gait.label == "lateral-sequence walk"
 
 
+def test_a_foot_bouncing_inside_its_stance_makes_one_footfall():
+    frames = round(SECONDS * FPS) + 1
+    contacts = np.stack([foot_down(LS_WALK[leg], 0.7, frames) for leg in R.LEGS], axis=1)
+    reference = analyse(LS_WALK, 0.7, contacts=contacts.copy())
+    lh = R.LEGS.index("lh")
+    touchdowns = np.flatnonzero(np.diff(contacts[:, lh].astype(int)) == 1) + 1
+    for touchdown in touchdowns:
+        contacts[touchdown + 3:touchdown + 6, lh] = False  # a three-frame hop: longer than a flicker
+    bounced = analyse(LS_WALK, 0.7, contacts=contacts)
+    assert bounced.stride_frames == reference.stride_frames
+    assert [f.touchdown_frame for f in bounced.legs["lh"].footfalls] == [f.touchdown_frame for f in reference.legs["lh"].footfalls]
+    for leg in R.LEGS:
+        assert bounced.legs[leg].phase == pytest.approx(reference.legs[leg].phase, abs=1e-12), leg
+    assert bounced.gait.label == "lateral-sequence walk"
+
+
+def test_a_first_touch_before_a_hop_starts_the_stance():
+    raw = np.array([0] * 10 + [1, 1] + [0, 0] + [1] * 10 + [0] * 10 + [1] * 14 + [0] * 10, dtype=bool)
+    cleaned = A.clean_contacts(raw, 2)
+    assert A._runs(cleaned, True)[:2] == [(10, 24), (34, 48)]
+
+
 # --- Slip ---------------------------------------------------------------------------------------
 
 def test_planted_feet_do_not_slip():
