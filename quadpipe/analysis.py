@@ -3,8 +3,8 @@
 What `quadpipe analyze run.npz` reports, per animal of the clip:
 
 - **Footfalls** from the clip's per-frame foot contacts, cleaned: a contact or a gap lasting
-  less than `MIN_RUN_NATURAL_TIMES` of the animal's natural time `sqrt(HP / g)` (a dog's two
-  frames at 30 fps: 67 ms for the dog, 13 ms for the rat) is a flicker and does not count;
+  less than `MIN_RUN_NATURAL_TIMES` of the animal's natural time `sqrt(HP / g)` (26 ms for
+  the dog, 5 ms for the rat), or two frames, is a flicker and does not count;
   nor does a scuff (a contact much shorter than the foot's stances) or a bounce (a lift much
   shorter than its swings).
   A clip with too few frames per natural time for the animal (a rat at 30 fps) gets a note
@@ -48,9 +48,10 @@ HILDEBRAND_ORDER: tuple[str, ...] = ("lh", "lf", "rf", "rh")
 TOE_BONES: dict[str, str] = {leg: f"{leg}_{(R.FRONT_CHAIN if leg.endswith('f') else R.HIND_CHAIN)[-1]}" for leg in R.LEGS}
 """The last phalanx of each leg, whose far end is the toe tip."""
 
-MIN_RUN_NATURAL_TIMES = (2.0 / 30.0) / natural_time(REFERENCE_HP_M)
-"""A contact or a gap shorter than this many natural times sqrt(HP / g) is a flicker: the
-thesis dog's two frames at 30 fps (0.26 natural time; 67 ms for the dog)."""
+MIN_RUN_NATURAL_TIMES = 0.1
+"""A contact or a gap shorter than this many natural times sqrt(HP / g) is a flicker (26 ms
+for the thesis dog, 5 ms for the rat, 55 ms for the elephant). Longer runs count: a horse's
+hind foot at a bound is down for 0.18 natural time."""
 
 MIN_RUN_FRAMES = 2
 """Runs shorter than this many frames are flickers whatever the frame rate."""

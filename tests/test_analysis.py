@@ -19,7 +19,7 @@ from quadpipe import analysis as A
 from quadpipe import roles as R
 from quadpipe.clip import AnimalTrack, Clip
 from quadpipe.errors import QuadpipeError
-from quadpipe.sizing import GRAVITY
+from quadpipe.sizing import GRAVITY, natural_time
 
 FPS = 30.0
 PERIOD_S = 0.95
@@ -241,6 +241,14 @@ def test_a_foot_bouncing_inside_its_stance_makes_one_footfall():
     for leg in R.LEGS:
         assert bounced.legs[leg].phase == pytest.approx(reference.legs[leg].phase, abs=1e-12), leg
     assert bounced.gait.label == "lateral-sequence walk"
+
+
+def test_a_bounds_short_stance_is_a_footfall_not_a_flicker():
+    fps = 120.0
+    stance = round(0.18 * natural_time(HP_M) * fps)  # a horse's hind foot at a bound: 0.18 natural time
+    raw = np.array(([False] * 40 + [True] * stance) * 5 + [False] * 40)
+    cleaned = A.clean_contacts(raw, A.min_run_frames(fps, HP_M))
+    assert len(A._runs(cleaned, True)) == 5
 
 
 def test_a_first_touch_before_a_hop_starts_the_stance():
