@@ -34,7 +34,6 @@ from typing import Any
 import numpy as np
 
 from quadpipe import roles as R
-from quadpipe.animals import REFERENCE_HP_M
 from quadpipe.clip import AnimalTrack, Clip
 from quadpipe.errors import QuadpipeError, did_you_mean
 from quadpipe.sizing import GRAVITY, natural_time

@@ -9,7 +9,6 @@ boxes and planes are built here with one normal per face (flat shading).
 from __future__ import annotations
 
 import functools
-
 from dataclasses import dataclass
 from typing import Sequence
 
