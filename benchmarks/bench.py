@@ -38,10 +38,10 @@ if TYPE_CHECKING:
     import mujoco
     import numpy as np
 
-    from quadpipe.clip import Clip
-    from quadpipe.model import BuiltAnimal
-    from quadpipe.scene import SceneSetup, SceneSpec
-    from quadpipe.simulate import Run
+    from quadpipe.clip.model import Clip
+    from quadpipe.animals.model import BuiltAnimal
+    from quadpipe.world.scene import SceneSetup, SceneSpec
+    from quadpipe.sim.simulation import Run
 
 REPO = Path(__file__).resolve().parent.parent
 """The repository root (commands run there, relative paths resolve there)."""
@@ -223,7 +223,7 @@ class Context:
     def walk_clip(self) -> "Clip":
         """The dog walk of `plan.clip_seconds` (simulated on first use)."""
         if self.clip is None:
-            from quadpipe.simulate import simulate
+            from quadpipe.sim.simulation import simulate
 
             self.clip = simulate(BAKE_ANIMAL, BAKE_CONTROLLER, seconds=self.plan.clip_seconds, scene=BENCH_SCENE).clip
         return self.clip
@@ -238,7 +238,7 @@ def timed(action: Callable[[], Any]) -> float:
 
 def error_text(exc: BaseException) -> str:
     """A one-line status for a failed measurement (the issue code for input errors)."""
-    from quadpipe.errors import QuadpipeError
+    from quadpipe.core.errors import QuadpipeError
 
     if isinstance(exc, QuadpipeError) and exc.issues:
         return f"error {exc.issues[0].code}: {exc.issues[0].message}"
@@ -267,7 +267,7 @@ class World:
         """Build and compile `scene` with `species` for its animals."""
         import mujoco
 
-        from quadpipe.scene import build_scene
+        from quadpipe.world.scene import build_scene
 
         setup = build_scene(scene, species)
         model = setup.spec.compile()
@@ -287,8 +287,8 @@ class World:
 
     def controlled_run(self, controller: str) -> "Run":
         """A run from the start under a freshly built runtime of `controller` (as `simulate` builds it)."""
-        from quadpipe.runtime import build_runtime
-        from quadpipe.simulate import Run
+        from quadpipe.controllers.runtime.runtime import build_runtime
+        from quadpipe.sim.simulation import Run
 
         self.reset()
         runtime = build_runtime(controller, self.model, self.setup.placements, scene_parameters=self.setup.goal_parameters)
@@ -304,8 +304,8 @@ class World:
         """`ok`, `blew-up` (non-finite state or a bad-acceleration warning) or how many fell."""
         import mujoco
 
-        from quadpipe import physics
-        from quadpipe.simulate import FALL_HEIGHT_HP
+        from quadpipe.sim import health as physics
+        from quadpipe.sim.simulation import FALL_HEIGHT_HP
 
         if not physics.is_finite(self.data) or self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
             return "blew-up"
@@ -335,9 +335,9 @@ def worst_status(statuses: Sequence[str]) -> str:
 
 def bench_controllers(ctx: Context) -> Section:
     """Per animal and shipped controller: microseconds per step with it and bare, overhead, real time."""
-    from quadpipe.animals import load_animal
-    from quadpipe.model import build_animal
-    from quadpipe.scene import load_scene
+    from quadpipe.animals.library import load_animal
+    from quadpipe.animals.model import build_animal
+    from quadpipe.world.scene import load_scene
 
     rows = []
     for animal, controllers in controller_pairs(ctx.plan.all_pairs).items():
@@ -357,7 +357,7 @@ def bench_controllers(ctx: Context) -> Section:
 
 def controller_pairs(all_pairs: bool) -> dict[str, list[str]]:
     """Animal -> the shipped controllers to time on it (all, or the cross through dog and spine_walk)."""
-    from quadpipe import configs
+    from quadpipe.core import configs
 
     animals, controllers = configs.available("animals"), configs.available("controllers")
     if all_pairs:
@@ -420,9 +420,9 @@ def write_crowd_scene(count: int, folder: Path) -> Path:
 
 def crowd_world(scene_path: Path) -> World:
     """The compiled crowd of a scene file written by `write_crowd_scene`."""
-    from quadpipe.animals import load_animal
-    from quadpipe.model import build_animal
-    from quadpipe.scene import load_scene
+    from quadpipe.animals.library import load_animal
+    from quadpipe.animals.model import build_animal
+    from quadpipe.world.scene import load_scene
 
     return World.build(load_scene(scene_path), build_animal(load_animal(CROWD_SPECIES)))
 
@@ -674,7 +674,7 @@ def bench_bake(ctx: Context) -> Section:
     """The whole `quadpipe bake` of a dog walk to .glb and .usdc as a shell command, beside the
     same simulation and exports done in this process."""
     from quadpipe.exporters import export_clip
-    from quadpipe.simulate import simulate
+    from quadpipe.sim.simulation import simulate
 
     seconds = ctx.plan.clip_seconds
     outputs = [ctx.folder / f"bake{suffix}" for suffix in BAKE_FORMATS]
@@ -784,7 +784,7 @@ def bench_render(ctx: Context) -> Section:
 
 def bench_batch(ctx: Context) -> Section:
     """`quadpipe batch` of animals x every shipped controller to .glb, on 2 workers beside 1."""
-    from quadpipe import configs
+    from quadpipe.core import configs
     from quadpipe.batch import BatchPlan, Outcome, run_batch
 
     animals = list(ctx.plan.batch_animals or configs.available("animals"))
@@ -1000,7 +1000,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     old = load_report(args.compare[0]) if args.compare else None
     report = run_benchmarks(QUICK if args.quick else FULL, args.only or list(SECTIONS))
-    from quadpipe.atomic import write_text
+    from quadpipe.core.atomic import write_text
 
     args.json.parent.mkdir(parents=True, exist_ok=True)
     write_text(args.json, json.dumps(report, indent=1) + "\n")

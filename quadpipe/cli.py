@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Annotated, Optional
 
 import typer
 
-from quadpipe.sizing import FRAME_RATE
+from quadpipe.animals.sizing import FRAME_RATE
 
 if TYPE_CHECKING:
     from quadpipe.analysis import GaitReport
@@ -75,8 +75,8 @@ MassOpt = Annotated[Optional[float], typer.Option("--mass", help="Body mass in k
 
 
 def _built(source: str, limits: Path | None, roles: Path | None, mass: float | None):
-    from quadpipe.animals import resolve_animal
-    from quadpipe.model import build_animal
+    from quadpipe.animals.library import resolve_animal
+    from quadpipe.animals.model import build_animal
 
     animal = resolve_animal(source, limits=limits, role_map=roles, mass_kg=mass)
     _print_warnings(animal.warnings)
@@ -96,7 +96,8 @@ def animals(
 
     Example: quadpipe animals --format json
     """
-    from quadpipe import configs, report
+    from quadpipe.core import configs
+    from quadpipe.animals import report
 
     rows = [report.animal_row(_built(name, None, None, None)) for name in configs.available("animals")]
     rows.sort(key=lambda row: -row["hp_cm"])
@@ -121,18 +122,18 @@ def roles(
 
     Example: quadpipe roles rig.ma -o rig_roles.yaml   (then: quadpipe inspect rig.ma --roles rig_roles.yaml)
     """
-    from quadpipe import roles as R
+    from quadpipe.anatomy.roles import PARENT, ROLES, kind_of
 
     if skeleton is None:
-        _print_table("Roles", ["role", "parent", "kind"], [[role, R.PARENT[role] or "-", R.kind_of(role)] for role in R.ROLES])
+        _print_table("Roles", ["role", "parent", "kind"], [[role, PARENT[role] or "-", kind_of(role)] for role in ROLES])
         return
     from quadpipe.importers import read_raw_skeleton
-    from quadpipe.rolemap import guess_roles, write_role_map
+    from quadpipe.anatomy.rolemap import guess_roles, write_role_map
 
     raw = read_raw_skeleton(skeleton)
     guess = guess_roles(raw)
     placed = {role: name for name, role in guess.roles.items()}
-    _print_table(f"Roles guessed for {skeleton}", ["role", "joint"], [[role, placed.get(role, "(not placed)")] for role in R.ROLES])
+    _print_table(f"Roles guessed for {skeleton}", ["role", "joint"], [[role, placed.get(role, "(not placed)")] for role in ROLES])
     if guess.missing:
         for note in guess.notes:
             typer.echo(f"note: {note}", err=True)
@@ -154,8 +155,8 @@ def convert(
 
     Example: quadpipe convert dog -o dog.xml
     """
-    from quadpipe.atomic import write_text
-    from quadpipe.world import Placement, build_world
+    from quadpipe.core.atomic import write_text
+    from quadpipe.world.placement import Placement, build_world
 
     built = _built(source, limits, roles, mass)
     spec = build_world([Placement(built.animal.name, built)], floor=floor)
@@ -178,7 +179,7 @@ def inspect(
 
     Example: quadpipe inspect horse   |   quadpipe inspect rig.bvh --roles rig_roles.yaml
     """
-    from quadpipe import report
+    from quadpipe.animals import report
 
     built = _built(source, limits, roles, mass)
     summary, bones = report.animal_row(built), report.bone_rows(built)
@@ -217,7 +218,7 @@ def validate(
 
     Example: quadpipe validate configs/controllers/ --format github
     """
-    from quadpipe.controller_dsl import validate_files
+    from quadpipe.controllers.language import validate_files
 
     report, code = validate_files(files, fmt.value)
     if report:
@@ -239,11 +240,11 @@ def schema(kind: Annotated[SchemaKind, typer.Argument(help="Which file format.")
     Example: quadpipe schema controller > controller.schema.json
     """
     if kind is SchemaKind.controller:
-        from quadpipe.controller_dsl import controller_json_schema
+        from quadpipe.controllers.language import controller_json_schema
 
         typer.echo(json.dumps(controller_json_schema(), indent=2))
     else:
-        from quadpipe.scene import scene_json_schema
+        from quadpipe.world.scene import scene_json_schema
 
         typer.echo(json.dumps(scene_json_schema(), indent=2))
 
@@ -254,8 +255,8 @@ def controllers() -> None:
 
     Example: quadpipe controllers
     """
-    from quadpipe import configs
-    from quadpipe.controller_dsl import load_controller
+    from quadpipe.core import configs
+    from quadpipe.controllers.language import load_controller
 
     rows = [[name, load_controller(name).description] for name in configs.available("controllers")]
     _print_table("Controllers", ["name", "description"], rows)
@@ -267,7 +268,7 @@ def scenes() -> None:
 
     Example: quadpipe scenes
     """
-    from quadpipe.scene import available_scenes, load_scene
+    from quadpipe.world.scene import available_scenes, load_scene
 
     _print_table("Scenes", ["name", "description"], [[name, load_scene(name).description] for name in available_scenes()])
 
@@ -336,9 +337,9 @@ def _run_and_write(
     gait_report: Path | None,
     diagram: Path | None,
 ) -> None:
-    from quadpipe.atomic import check_writable, write_text
+    from quadpipe.core.atomic import check_writable, write_text
     from quadpipe.exporters import check_output_path, export_clip
-    from quadpipe.simulate import simulate as run_simulation
+    from quadpipe.sim.simulation import simulate as run_simulation
 
     for output in outputs:
         check_output_path(output)
@@ -450,7 +451,7 @@ def render(
 
         baked = load_clip(clip)
     else:
-        from quadpipe.simulate import simulate as run_simulation
+        from quadpipe.sim.simulation import simulate as run_simulation
 
         baked = run_simulation(animal, controller, seconds=seconds, scene=scene, parameters=_parameters(parameters)).clip
     names = [] if overlays == "none" else [name.strip() for name in overlays.split(",") if name.strip()]
@@ -483,7 +484,7 @@ def analyze(
 def _write_gait_report(report: GaitReport, report_path: Path | None, diagram: Path | None) -> None:
     """Write a gait analysis as JSON and its footfall diagram as PNG (either may be None)."""
     from quadpipe.analysis import draw_footfall_diagram
-    from quadpipe.atomic import write_text
+    from quadpipe.core.atomic import write_text
 
     if report_path is not None:
         write_text(report_path, json.dumps(report.to_dict(), indent=2, allow_nan=False) + "\n")
@@ -494,7 +495,7 @@ def _write_gait_report(report: GaitReport, report_path: Path | None, diagram: Pa
 
 
 def _parameters(pairs: list[str] | None) -> dict[str, str]:
-    from quadpipe.errors import QuadpipeError
+    from quadpipe.core.errors import QuadpipeError
 
     result = {}
     for pair in pairs or []:
@@ -519,7 +520,7 @@ def _print_table(title: str, headers: list[str], rows: list[list]) -> None:
 
 def main() -> None:
     """Entry point: run the app, turning input errors into clean messages and exit codes."""
-    from quadpipe.errors import QuadpipeError
+    from quadpipe.core.errors import QuadpipeError
 
     try:
         app()

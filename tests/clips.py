@@ -15,10 +15,10 @@ import math
 import mujoco
 import numpy as np
 
-from quadpipe import sizing
-from quadpipe.clip import AnimalTrack, Clip, PropTrack
-from quadpipe.recording import Recorder
-from quadpipe.world import Placement, build_world
+from quadpipe.animals import sizing
+from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
+from quadpipe.sim.recording import Recorder
+from quadpipe.world.placement import Placement, build_world
 from tests.conftest import built_animal
 
 CLIP_SECONDS = 2.0

@@ -17,8 +17,8 @@ FIXTURES = REPO / "tests" / "fixtures"
 @functools.lru_cache(maxsize=None)
 def built_animal(name: str):
     """The `BuiltAnimal` of a built-in animal (cached)."""
-    from quadpipe.animals import load_animal
-    from quadpipe.model import build_animal
+    from quadpipe.animals.library import load_animal
+    from quadpipe.animals.model import build_animal
 
     return build_animal(load_animal(name))
 
@@ -41,7 +41,7 @@ def cli():
 def cached_simulation(
     animal: str, controller: str, seconds: float, scene: str | None = None, parameters: tuple[tuple[str, str], ...] = ()
 ):
-    """`quadpipe.simulate.simulate`, run once per session for the same arguments."""
-    from quadpipe.simulate import simulate
+    """`quadpipe.sim.simulation.simulate`, run once per session for the same arguments."""
+    from quadpipe.sim.simulation import simulate
 
     return simulate(animal, controller, seconds=seconds, scene=scene, parameters=dict(parameters))

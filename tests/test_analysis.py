@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from quadpipe import analysis as A
-from quadpipe import roles as R
-from quadpipe.clip import AnimalTrack, Clip
-from quadpipe.errors import QuadpipeError
-from quadpipe.sizing import GRAVITY, natural_time
+from quadpipe.analysis import AnimalGait, BAR_COLOUR, DIAGRAM_STRIDES, DIAGRAM_WIDTH_PX, GaitReport, HILDEBRAND_ORDER, PANEL_HEIGHT_PX, ROW_GAP_PX, TOE_BONES, _runs, analyze_clip, classify_gait, clean_contacts, controller_force_key, controller_power_key, debounce, diagram_panels, diagram_size, draw_footfall_diagram, footfall_diagram_png, format_report, min_run_frames, phase_distance, toe_tips
+from quadpipe.anatomy.roles import LEGS, PARENT, ROLES
+from quadpipe.clip.model import AnimalTrack, Clip
+from quadpipe.core.errors import QuadpipeError
+from quadpipe.animals.sizing import GRAVITY, natural_time
 
 FPS = 30.0
 PERIOD_S = 0.95
@@ -59,23 +59,23 @@ def synthetic_track(
             the generated footfalls).
     """
     frames = round(seconds * FPS) + 1
-    duties = duty if isinstance(duty, dict) else {leg: duty for leg in R.LEGS}
-    down = np.stack([foot_down(phases[leg], duties[leg], frames) for leg in R.LEGS], axis=1)
+    duties = duty if isinstance(duty, dict) else {leg: duty for leg in LEGS}
+    down = np.stack([foot_down(phases[leg], duties[leg], frames) for leg in LEGS], axis=1)
     times = np.arange(frames) / FPS
     body = np.stack([SPEED_M_S * times, np.zeros(frames), np.full(frames, HP_M)], axis=1)
-    positions = np.repeat(body[:, None, :], len(R.ROLES), axis=1)
-    for index, leg in enumerate(R.LEGS):
-        positions[:, R.ROLES.index(A.TOE_BONES[leg])] = _toe_path(body, down[:, index], HIP_OFFSET[leg], (drift_m_s or {}).get(leg, 0.0))
-    rest_start = np.zeros((len(R.ROLES), 3))
-    rest_end = np.zeros((len(R.ROLES), 3))
-    for bone in A.TOE_BONES.values():
-        rest_end[R.ROLES.index(bone)] = TOE_OFFSET
-    rotations = np.zeros((frames, len(R.ROLES), 4))
+    positions = np.repeat(body[:, None, :], len(ROLES), axis=1)
+    for index, leg in enumerate(LEGS):
+        positions[:, ROLES.index(TOE_BONES[leg])] = _toe_path(body, down[:, index], HIP_OFFSET[leg], (drift_m_s or {}).get(leg, 0.0))
+    rest_start = np.zeros((len(ROLES), 3))
+    rest_end = np.zeros((len(ROLES), 3))
+    for bone in TOE_BONES.values():
+        rest_end[ROLES.index(bone)] = TOE_OFFSET
+    rotations = np.zeros((frames, len(ROLES), 4))
     rotations[..., 0] = 1.0
     return AnimalTrack(
-        name=name, species="dog", roles=R.ROLES,
-        parents=np.array([R.ROLES.index(R.PARENT[r]) if R.PARENT[r] else -1 for r in R.ROLES]),
-        rest_start=rest_start, rest_end=rest_end, shapes=[[] for _ in R.ROLES],
+        name=name, species="dog", roles=ROLES,
+        parents=np.array([ROLES.index(PARENT[r]) if PARENT[r] else -1 for r in ROLES]),
+        rest_start=rest_start, rest_end=rest_end, shapes=[[] for _ in ROLES],
         positions=positions, rotations=rotations, pelvis_height=HP_M, mass_kg=MASS_KG,
         foot_contacts=down if contacts is None else contacts,
     )
@@ -94,12 +94,12 @@ def synthetic_clip(*tracks: AnimalTrack, sensors: dict | None = None) -> Clip:
     return Clip(FPS, list(tracks), sensors=dict(sensors or {}))
 
 
-def analyse(phases: dict[str, float], duty: float | dict[str, float], **options) -> A.AnimalGait:
-    return A.analyze_clip(synthetic_clip(synthetic_track(phases, duty, **options))).animals[0]
+def analyse(phases: dict[str, float], duty: float | dict[str, float], **options) -> AnimalGait:
+    return analyze_clip(synthetic_clip(synthetic_track(phases, duty, **options))).animals[0]
 
 
 def phase_error(a: float, b: float) -> float:
-    return A.phase_distance(a, b)
+    return phase_distance(a, b)
 
 
 # --- Measuring known footfalls ----------------------------------------------------------------
@@ -112,7 +112,7 @@ def test_phases_duty_factors_and_stride_frequency_are_measured_exactly():
     gait = analyse(PHASES_UNDER_TEST, DUTIES_UNDER_TEST)
     assert abs(gait.stride_period_s - PERIOD_S) <= FRAME_S
     assert abs(gait.stride_frequency_hz - 1 / PERIOD_S) <= 1 / PERIOD_S - 1 / (PERIOD_S + FRAME_S)
-    for leg in R.LEGS:
+    for leg in LEGS:
         assert phase_error(gait.legs[leg].phase, PHASES_UNDER_TEST[leg]) <= ONE_FRAME_PHASE, leg
         assert abs(gait.legs[leg].duty_factor - DUTIES_UNDER_TEST[leg]) <= ONE_FRAME_PHASE, leg
         assert gait.legs[leg].phase_spread < ONE_FRAME_PHASE, leg
@@ -173,16 +173,16 @@ def test_no_feet_down_is_no_gait():
 
 def test_a_foot_that_stays_down_makes_the_gait_irregular():
     frames = round(SECONDS * FPS) + 1
-    contacts = np.stack([foot_down(LS_WALK[leg], 0.7, frames) for leg in R.LEGS], axis=1)
-    contacts[:, R.LEGS.index("rf")] = True
+    contacts = np.stack([foot_down(LS_WALK[leg], 0.7, frames) for leg in LEGS], axis=1)
+    contacts[:, LEGS.index("rf")] = True
     gait = analyse(LS_WALK, 0.7, contacts=contacts)
     assert gait.gait.name == "irregular"
     assert gait.legs["rf"].phase is None and gait.legs["rf"].duty_factor == 1.0
 
 
 def test_classification_tolerates_small_phase_errors_and_rejects_large_ones():
-    assert A.classify_gait({"lh": 0.0, "rf": 0.05, "lf": 0.46, "rh": 0.53}, 0.4).name == "trot"
-    assert A.classify_gait({"lh": 0.0, "rf": 0.3, "lf": 0.6, "rh": 0.5}, 0.4).name != "trot"
+    assert classify_gait({"lh": 0.0, "rf": 0.05, "lf": 0.46, "rh": 0.53}, 0.4).name == "trot"
+    assert classify_gait({"lh": 0.0, "rf": 0.3, "lf": 0.6, "rh": 0.5}, 0.4).name != "trot"
 
 
 # --- Debouncing -------------------------------------------------------------------------------
@@ -190,12 +190,12 @@ def test_classification_tolerates_small_phase_errors_and_rejects_large_ones():
 def test_debounce_removes_one_frame_gaps_and_contacts():
     raw = np.array([0, 0, 1, 0, 0, 1, 1, 1, 0, 1, 1, 1, 0, 0], dtype=bool)
     expected = np.array([0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 0, 0], dtype=bool)
-    np.testing.assert_array_equal(A.debounce(raw, 2), expected)
+    np.testing.assert_array_equal(debounce(raw, 2), expected)
 
 
 def test_flickers_do_not_change_the_analysis():
     frames = round(SECONDS * FPS) + 1
-    clean = np.stack([foot_down(LS_WALK[leg], 0.7, frames) for leg in R.LEGS], axis=1)
+    clean = np.stack([foot_down(LS_WALK[leg], 0.7, frames) for leg in LEGS], axis=1)
     noisy = clean.copy()
     rng = np.random.default_rng(7)
     for leg in range(4):
@@ -206,7 +206,7 @@ def test_flickers_do_not_change_the_analysis():
     assert (noisy != clean).sum() > 20
     before, after = analyse(LS_WALK, 0.7, contacts=clean), analyse(LS_WALK, 0.7, contacts=noisy)
     assert after.stride_frames == before.stride_frames
-    for leg in R.LEGS:
+    for leg in LEGS:
         assert after.legs[leg].footfalls == before.legs[leg].footfalls
         assert after.legs[leg].phase == before.legs[leg].phase
         assert after.legs[leg].duty_factor == before.legs[leg].duty_factor
@@ -215,9 +215,9 @@ def test_flickers_do_not_change_the_analysis():
 
 def test_a_short_scuff_during_the_swing_is_not_a_footfall():
     frames = round(SECONDS * FPS) + 1
-    contacts = np.stack([foot_down(LS_WALK[leg], 0.7, frames) for leg in R.LEGS], axis=1)
+    contacts = np.stack([foot_down(LS_WALK[leg], 0.7, frames) for leg in LEGS], axis=1)
     reference = analyse(LS_WALK, 0.7, contacts=contacts.copy())
-    lh = R.LEGS.index("lh")
+    lh = LEGS.index("lh")
     swing_starts = np.flatnonzero(np.diff(contacts[:, lh].astype(int)) == -1) + 1
     for start in swing_starts[:-1]:
         contacts[start + 2:start + 5, lh] = True  # three frames: longer than a flicker
@@ -229,16 +229,16 @@ def test_a_short_scuff_during_the_swing_is_not_a_footfall():
 
 def test_a_foot_bouncing_inside_its_stance_makes_one_footfall():
     frames = round(SECONDS * FPS) + 1
-    contacts = np.stack([foot_down(LS_WALK[leg], 0.7, frames) for leg in R.LEGS], axis=1)
+    contacts = np.stack([foot_down(LS_WALK[leg], 0.7, frames) for leg in LEGS], axis=1)
     reference = analyse(LS_WALK, 0.7, contacts=contacts.copy())
-    lh = R.LEGS.index("lh")
+    lh = LEGS.index("lh")
     touchdowns = np.flatnonzero(np.diff(contacts[:, lh].astype(int)) == 1) + 1
     for touchdown in touchdowns:
         contacts[touchdown + 3:touchdown + 6, lh] = False  # a three-frame hop: longer than a flicker
     bounced = analyse(LS_WALK, 0.7, contacts=contacts)
     assert bounced.stride_frames == reference.stride_frames
     assert [f.touchdown_frame for f in bounced.legs["lh"].footfalls] == [f.touchdown_frame for f in reference.legs["lh"].footfalls]
-    for leg in R.LEGS:
+    for leg in LEGS:
         assert bounced.legs[leg].phase == pytest.approx(reference.legs[leg].phase, abs=1e-12), leg
     assert bounced.gait.label == "lateral-sequence walk"
 
@@ -247,21 +247,21 @@ def test_a_bounds_short_stance_is_a_footfall_not_a_flicker():
     fps = 120.0
     stance = round(0.18 * natural_time(HP_M) * fps)  # a horse's hind foot at a bound: 0.18 natural time
     raw = np.array(([False] * 40 + [True] * stance) * 5 + [False] * 40)
-    cleaned = A.clean_contacts(raw, A.min_run_frames(fps, HP_M))
-    assert len(A._runs(cleaned, True)) == 5
+    cleaned = clean_contacts(raw, min_run_frames(fps, HP_M))
+    assert len(_runs(cleaned, True)) == 5
 
 
 def test_a_first_touch_before_a_hop_starts_the_stance():
     raw = np.array([0] * 10 + [1, 1] + [0, 0] + [1] * 10 + [0] * 10 + [1] * 14 + [0] * 10, dtype=bool)
-    cleaned = A.clean_contacts(raw, 2)
-    assert A._runs(cleaned, True)[:2] == [(10, 24), (34, 48)]
+    cleaned = clean_contacts(raw, 2)
+    assert _runs(cleaned, True)[:2] == [(10, 24), (34, 48)]
 
 
 # --- Slip ---------------------------------------------------------------------------------------
 
 def test_planted_feet_do_not_slip():
     gait = analyse(LS_WALK, 0.7)
-    for leg in R.LEGS:
+    for leg in LEGS:
         assert gait.legs[leg].mean_slip_m == pytest.approx(0.0, abs=1e-12), leg
 
 
@@ -279,10 +279,10 @@ def test_slip_is_the_planted_toes_drift():
 
 def test_toe_tips_rotate_with_the_last_phalanx():
     track = synthetic_track(LS_WALK, 0.7)
-    bone = R.ROLES.index(A.TOE_BONES["lf"])
+    bone = ROLES.index(TOE_BONES["lf"])
     half_turn_about_z = np.array([0.0, 0.0, 0.0, 1.0])
     track.rotations[:, bone] = half_turn_about_z
-    tips = A.toe_tips(track)["lf"]
+    tips = toe_tips(track)["lf"]
     np.testing.assert_allclose(tips - track.positions[:, bone], np.tile([-0.03, 0.0, -0.04], (len(tips), 1)), atol=1e-12)
 
 
@@ -290,11 +290,11 @@ def test_toe_tips_rotate_with_the_last_phalanx():
 
 def test_each_animal_of_a_clip_is_analysed_on_its_own():
     clip = synthetic_clip(synthetic_track(*GAITS["trot"], name="dog"), synthetic_track(*GAITS["pace"], name="dog2"))
-    report = A.analyze_clip(clip)
+    report = analyze_clip(clip)
     assert [(a.name, a.gait.name) for a in report.animals] == [("dog", "trot"), ("dog2", "pace")]
-    assert [a.name for a in A.analyze_clip(clip, "dog2").animals] == ["dog2"]
+    assert [a.name for a in analyze_clip(clip, "dog2").animals] == ["dog2"]
     with pytest.raises(QuadpipeError) as error:
-        A.analyze_clip(clip, "dgo2")
+        analyze_clip(clip, "dgo2")
     assert error.value.issues[0].code == "unknown-animal"
     assert "dog2" in error.value.issues[0].hint
 
@@ -305,8 +305,8 @@ def test_controller_force_and_work_are_reported_when_recorded():
     force = np.tile([0.1 * MASS_KG * GRAVITY, 0.0, 0.0], (frames, 1))
     force[:, 1] = np.where(np.arange(frames) % 2, 1.0, -1.0) * 0.2 * MASS_KG * GRAVITY  # |F| alternates
     power = np.full(frames, 12.0)
-    clip = synthetic_clip(track, sensors={A.controller_force_key("dog"): force, A.controller_power_key("dog"): power})
-    effort = A.analyze_clip(clip).animals[0].effort
+    clip = synthetic_clip(track, sensors={controller_force_key("dog"): force, controller_power_key("dog"): power})
+    effort = analyze_clip(clip).animals[0].effort
     assert effort.mean_net_force_bw == pytest.approx(np.hypot(0.1, 0.2))
     assert effort.work_j == pytest.approx(12.0 * frames / FPS)
     distance = SPEED_M_S * (frames - 1) / FPS
@@ -314,17 +314,17 @@ def test_controller_force_and_work_are_reported_when_recorded():
 
 
 def test_controller_effort_is_not_recorded_without_sensors():
-    report = A.analyze_clip(synthetic_clip(synthetic_track(LS_WALK, 0.7)))
+    report = analyze_clip(synthetic_clip(synthetic_track(LS_WALK, 0.7)))
     assert report.animals[0].effort is None
     assert report.to_dict()["animals"]["dog"]["controller_forces"] == "not recorded"
-    assert "controller forces: not recorded" in A.format_report(report)
+    assert "controller forces: not recorded" in format_report(report)
 
 
 def test_a_controller_sensor_of_the_wrong_shape_is_an_error():
     track = synthetic_track(LS_WALK, 0.7)
-    clip = synthetic_clip(track, sensors={A.controller_power_key("dog"): np.zeros((track.positions.shape[0], 2))})
+    clip = synthetic_clip(track, sensors={controller_power_key("dog"): np.zeros((track.positions.shape[0], 2))})
     with pytest.raises(QuadpipeError) as error:
-        A.analyze_clip(clip)
+        analyze_clip(clip)
     assert error.value.issues[0].code == "bad-clip-sensor"
 
 
@@ -332,7 +332,7 @@ def test_a_blown_up_clip_is_analysed_up_to_its_first_nan():
     track = synthetic_track(LS_WALK, 0.7)
     blow_up = 150
     track.positions[blow_up:] = np.nan
-    gait = A.analyze_clip(synthetic_clip(track)).animals[0]
+    gait = analyze_clip(synthetic_clip(track)).animals[0]
     assert gait.frames == blow_up
     assert gait.stride_frames[-1] < blow_up
     assert gait.gait.label == "lateral-sequence walk"
@@ -340,7 +340,7 @@ def test_a_blown_up_clip_is_analysed_up_to_its_first_nan():
 
 
 def test_the_report_is_strict_json_with_every_figure():
-    report = A.analyze_clip(synthetic_clip(synthetic_track(PHASES_UNDER_TEST, DUTIES_UNDER_TEST)))
+    report = analyze_clip(synthetic_clip(synthetic_track(PHASES_UNDER_TEST, DUTIES_UNDER_TEST)))
     data = json.loads(json.dumps(report.to_dict(), allow_nan=False))
     dog = data["animals"]["dog"]
     assert dog["gait"]["label"] == "lateral-sequence walk"
@@ -353,53 +353,53 @@ def test_the_report_is_strict_json_with_every_figure():
 
 # --- Footfall diagram ------------------------------------------------------------------------------
 
-def diagram_pixels(report: A.GaitReport) -> np.ndarray:
-    return np.asarray(Image.open(io.BytesIO(A.footfall_diagram_png(report))).convert("RGB"))
+def diagram_pixels(report: GaitReport) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(footfall_diagram_png(report))).convert("RGB"))
 
 
 def test_the_diagram_has_one_panel_per_animal():
-    one = A.analyze_clip(synthetic_clip(synthetic_track(*GAITS["trot"])))
-    two = A.analyze_clip(synthetic_clip(synthetic_track(*GAITS["trot"]), synthetic_track(*GAITS["pace"], name="dog2")))
-    assert diagram_pixels(one).shape == (A.PANEL_HEIGHT_PX, A.DIAGRAM_WIDTH_PX, 3)
-    assert diagram_pixels(two).shape == (2 * A.PANEL_HEIGHT_PX, A.DIAGRAM_WIDTH_PX, 3)
-    assert A.diagram_size(two) == (A.DIAGRAM_WIDTH_PX, 2 * A.PANEL_HEIGHT_PX)
+    one = analyze_clip(synthetic_clip(synthetic_track(*GAITS["trot"])))
+    two = analyze_clip(synthetic_clip(synthetic_track(*GAITS["trot"]), synthetic_track(*GAITS["pace"], name="dog2")))
+    assert diagram_pixels(one).shape == (PANEL_HEIGHT_PX, DIAGRAM_WIDTH_PX, 3)
+    assert diagram_pixels(two).shape == (2 * PANEL_HEIGHT_PX, DIAGRAM_WIDTH_PX, 3)
+    assert diagram_size(two) == (DIAGRAM_WIDTH_PX, 2 * PANEL_HEIGHT_PX)
 
 
 def test_each_row_of_the_diagram_shows_its_foots_stances():
     phases, duty = GAITS["rotary gallop"]
     track = synthetic_track(phases, duty)
-    report = A.analyze_clip(synthetic_clip(track))
+    report = analyze_clip(synthetic_clip(track))
     pixels = diagram_pixels(report)
-    panel = A.diagram_panels(report)[0]
-    is_bar = np.all(pixels == A.BAR_COLOUR, axis=-1)
+    panel = diagram_panels(report)[0]
+    is_bar = np.all(pixels == BAR_COLOUR, axis=-1)
     frames = np.arange(round(panel.start_s * FPS) + 1, round(panel.end_s * FPS) - 1)
-    for row, leg in enumerate(A.HILDEBRAND_ORDER):
+    for row, leg in enumerate(HILDEBRAND_ORDER):
         top, bottom = panel.row_band(row)
         middle = (top + bottom) // 2
-        down = track.foot_contacts[:, R.LEGS.index(leg)]
+        down = track.foot_contacts[:, LEGS.index(leg)]
         for frame in frames:
             if down[frame - 1] == down[frame] == down[frame + 1]:
                 assert is_bar[middle, round(panel.x_of(frame / FPS))] == down[frame], (leg, frame)
         assert is_bar[top:bottom + 1].any(axis=0).sum() > 0.2 * (panel.right - panel.left), leg
-        between = panel.row_band(row)[1] + A.ROW_GAP_PX // 2
+        between = panel.row_band(row)[1] + ROW_GAP_PX // 2
         assert not is_bar[between].any(), leg
 
 
 def test_the_diagram_shows_the_last_whole_strides():
-    report = A.analyze_clip(synthetic_clip(synthetic_track(*GAITS["trot"])))
-    panel, animal = A.diagram_panels(report)[0], report.animals[0]
+    report = analyze_clip(synthetic_clip(synthetic_track(*GAITS["trot"])))
+    panel, animal = diagram_panels(report)[0], report.animals[0]
     assert panel.end_s == animal.stride_frames[-1] / FPS
-    assert panel.start_s == animal.stride_frames[-1 - A.DIAGRAM_STRIDES] / FPS
+    assert panel.start_s == animal.stride_frames[-1 - DIAGRAM_STRIDES] / FPS
 
 
 def test_the_diagram_is_written_atomically_as_png_only(tmp_path):
-    report = A.analyze_clip(synthetic_clip(synthetic_track(*GAITS["trot"])))
+    report = analyze_clip(synthetic_clip(synthetic_track(*GAITS["trot"])))
     target = tmp_path / "footfalls.png"
-    A.draw_footfall_diagram(report, target)
-    assert target.read_bytes() == A.footfall_diagram_png(report)
+    draw_footfall_diagram(report, target)
+    assert target.read_bytes() == footfall_diagram_png(report)
     assert [p.name for p in tmp_path.iterdir()] == ["footfalls.png"]
     with pytest.raises(QuadpipeError) as error:
-        A.draw_footfall_diagram(report, tmp_path / "footfalls.jpg")
+        draw_footfall_diagram(report, tmp_path / "footfalls.jpg")
     assert error.value.issues[0].code == "unsupported-diagram-format"
     assert not (tmp_path / "footfalls.jpg").exists()
 
@@ -412,16 +412,16 @@ SPINE_WALK_PERIOD_S = 38 / 30
 
 
 @functools.lru_cache(maxsize=None)
-def simulated_walk() -> A.GaitReport:
-    from quadpipe.simulate import simulate
+def simulated_walk() -> GaitReport:
+    from quadpipe.sim.simulation import simulate
 
-    return A.analyze_clip(simulate("dog", "spine_walk", seconds=WALK_SECONDS).clip)
+    return analyze_clip(simulate("dog", "spine_walk", seconds=WALK_SECONDS).clip)
 
 
 def test_a_simulated_dog_walk_is_recognised_as_a_walk():
     dog = simulated_walk().animals[0]
     assert dog.gait.label == "lateral-sequence walk"
-    assert np.mean([dog.legs[leg].duty_factor for leg in R.LEGS]) > 0.5
+    assert np.mean([dog.legs[leg].duty_factor for leg in LEGS]) > 0.5
     assert abs(dog.stride_period_s - SPINE_WALK_PERIOD_S) <= 2 * FRAME_S
     assert dog.stride_count >= 3
     assert dog.speed_m_s > 0.0 and dog.froude == pytest.approx(dog.speed_m_s**2 / (GRAVITY * dog.pelvis_height))
@@ -431,7 +431,7 @@ def test_a_simulated_dog_walk_is_recognised_as_a_walk():
 
 
 def test_a_higher_frame_rate_records_the_same_motion_more_often():
-    from quadpipe.simulate import simulate
+    from quadpipe.sim.simulation import simulate
 
     thirty = simulate("dog", "walk", seconds=1.0).clip
     hundred_twenty = simulate("dog", "walk", seconds=1.0, fps=120).clip
@@ -455,11 +455,11 @@ def test_bake_writes_the_gait_report_and_diagram_of_its_clip(cli, tmp_path):
                  "-o", str(clip), "--gait-report", str(report), "--diagram", str(diagram))
     assert result.returncode == 0, result.stderr
     written = json.loads(report.read_text())
-    expected = A.analyze_clip(load_clip(clip))
+    expected = analyze_clip(load_clip(clip))
     assert written == json.loads(json.dumps(expected.to_dict()))
     rat = expected.animals[0]
     assert rat.gait.label == "lateral-sequence walk", rat.gait.reason  # 120 fps resolves a rat's 0.17 s stride
-    assert Image.open(diagram).size == A.diagram_size(expected)
+    assert Image.open(diagram).size == diagram_size(expected)
 
 
 def test_a_wrong_diagram_suffix_is_refused_before_simulating(cli, tmp_path):

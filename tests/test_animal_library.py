@@ -16,10 +16,10 @@ from typing import Callable
 import numpy as np
 import pytest
 
-from quadpipe import configs
-from quadpipe import roles as R
-from quadpipe.animals import Animal, load_animal
-from quadpipe.skeleton import Bone, Skeleton
+from quadpipe.core import configs
+from quadpipe.anatomy.roles import FRONT_CHAIN, HIND_CHAIN, LEGS, NECK, ROLES, SPINE, TAIL
+from quadpipe.animals.library import Animal, load_animal
+from quadpipe.anatomy.skeleton import Bone, Skeleton
 
 REPO = Path(__file__).resolve().parent.parent
 GENERATOR = REPO / "tools" / "make_skeletons.py"
@@ -43,13 +43,13 @@ FIG7_TOLERANCE = 0.10
 
 FIG7_PART_MASSES = {"tail": 186.0, "spine": 106.0, "neck": 106.0, "front leg": 266.0, "rear leg": 231.0}
 FIG7_PARTS = {
-    "tail": R.TAIL,
-    "spine": R.SPINE,
-    "neck": R.NECK,
-    "front leg": tuple(f"lf_{bone}" for bone in R.FRONT_CHAIN),
-    "rear leg": tuple(f"lh_{bone}" for bone in R.HIND_CHAIN),
+    "tail": TAIL,
+    "spine": SPINE,
+    "neck": NECK,
+    "front leg": tuple(f"lf_{bone}" for bone in FRONT_CHAIN),
+    "rear leg": tuple(f"lh_{bone}" for bone in HIND_CHAIN),
 }
-AXIAL_TO_NOSE = ("pelvis", *R.SPINE, "thorax", *R.NECK, "head")
+AXIAL_TO_NOSE = ("pelvis", *SPINE, "thorax", *NECK, "head")
 
 
 @functools.lru_cache(maxsize=None)
@@ -75,12 +75,12 @@ def chain_length(name: str, roles: tuple[str, ...]) -> float:
 
 def hind_chain(name: str) -> float:
     """The left hind leg's summed bone length, in metres."""
-    return chain_length(name, tuple(f"lh_{kind}" for kind in R.HIND_CHAIN))
+    return chain_length(name, tuple(f"lh_{kind}" for kind in HIND_CHAIN))
 
 
 def front_chain(name: str) -> float:
     """The left front leg's summed bone length, in metres."""
-    return chain_length(name, tuple(f"lf_{kind}" for kind in R.FRONT_CHAIN))
+    return chain_length(name, tuple(f"lf_{kind}" for kind in FRONT_CHAIN))
 
 
 def from_vertical_deg(name: str, role: str) -> float:
@@ -106,7 +106,7 @@ def test_library_holds_the_thesis_animals():
 def test_loads_cleanly_with_every_role(name):
     loaded = animal(name)
     assert loaded.warnings == ()
-    assert tuple(loaded.skeleton.bones) == R.ROLES
+    assert tuple(loaded.skeleton.bones) == ROLES
 
 
 @pytest.mark.parametrize("name", ANIMALS)
@@ -119,8 +119,8 @@ def test_pelvis_stands_at_the_configured_height(name):
 @pytest.mark.parametrize("name", ANIMALS)
 def test_all_four_feet_touch_the_ground_and_nothing_is_below_it(name):
     bones = animal(name).skeleton.bones
-    for leg in R.LEGS:
-        toe = R.FRONT_CHAIN[-1] if leg.endswith("f") else R.HIND_CHAIN[-1]
+    for leg in LEGS:
+        toe = FRONT_CHAIN[-1] if leg.endswith("f") else HIND_CHAIN[-1]
         assert abs(float(bones[f"{leg}_{toe}"].end[2])) <= HP_TOLERANCE * hp(name), leg
     lowest = min(min(b.start[2], b.end[2]) for b in bones.values())
     assert lowest >= -HP_TOLERANCE * hp(name)
@@ -128,8 +128,8 @@ def test_all_four_feet_touch_the_ground_and_nothing_is_below_it(name):
 
 @pytest.mark.parametrize("name", ANIMALS)
 def test_left_legs_on_the_left_mirrored_by_the_right(name):
-    for kind in R.FRONT_CHAIN + R.HIND_CHAIN:
-        side = "f" if kind in R.FRONT_CHAIN else "h"
+    for kind in FRONT_CHAIN + HIND_CHAIN:
+        side = "f" if kind in FRONT_CHAIN else "h"
         left, right = bone(name, f"l{side}_{kind}"), bone(name, f"r{side}_{kind}")
         assert left.start[1] > 0 and left.end[1] > 0
         mirror = np.array([1.0, -1.0, 1.0])
@@ -221,7 +221,7 @@ def check_cat() -> None:
 
 def check_rat() -> None:
     """Crouched, with a tail about as long as head and body."""
-    assert chain_length("rat", R.TAIL) >= 0.8 * chain_length("rat", AXIAL_TO_NOSE)
+    assert chain_length("rat", TAIL) >= 0.8 * chain_length("rat", AXIAL_TO_NOSE)
     assert height_hp("rat", "lh_hip") <= 0.6 * hind_chain("rat") / hp("rat")
 
 

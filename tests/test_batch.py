@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from rich.console import Console
 
-from quadpipe import configs
+from quadpipe.core import configs
 from quadpipe.batch import (
     BatchPlan,
     Job,
@@ -27,7 +27,7 @@ from quadpipe.batch import (
     run_job,
     summary_table,
 )
-from quadpipe.errors import QuadpipeError
+from quadpipe.core.errors import QuadpipeError
 from tests.conftest import FIXTURES, REPO
 
 SECONDS = 0.5

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from quadpipe import roles as R
+from quadpipe.anatomy import roles
 from tests.conftest import cached_simulation
 
 ANIMAL = "dog"
@@ -108,14 +108,14 @@ def _rotate(quaternions: np.ndarray, vectors: np.ndarray) -> np.ndarray:
 
 def _bone_end(track, role: str) -> np.ndarray:
     """World position of a bone's far end in every frame, (F, 3)."""
-    index = R.ROLES.index(role)
+    index = roles.ROLES.index(role)
     offset = track.rest_end[index] - track.rest_start[index]
     return track.positions[:, index] + _rotate(track.rotations[:, index], np.broadcast_to(offset, track.positions[:, index].shape))
 
 
 def _joint(track, role: str) -> np.ndarray:
     """World position of a bone's joint in every frame, (F, 3)."""
-    return track.positions[:, R.ROLES.index(role)]
+    return track.positions[:, roles.ROLES.index(role)]
 
 
 def _tilt_deg(track) -> np.ndarray:

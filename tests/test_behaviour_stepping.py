@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from quadpipe import roles as R
+from quadpipe.anatomy import roles
 from tests.conftest import cached_simulation
 
 ANIMAL = "dog"
@@ -78,13 +78,13 @@ def _steps(track, since_s: float) -> dict[str, int]:
 
 def _pelvis_hp(track, axis: int) -> np.ndarray:
     """Pelvis position along a world axis per frame (0: forward, 1: left), in HP from where it started."""
-    x = track.positions[:, R.ROLES.index("pelvis"), axis]
+    x = track.positions[:, roles.ROLES.index("pelvis"), axis]
     return (x - x[0]) / track.pelvis_height
 
 
 def _foot_travel_hp(track, leg: str) -> tuple[float, float, float]:
     """A foot's travel in HP: net forward; sliding while planted (any direction); forward in the air."""
-    xy = track.positions[:, R.ROLES.index(FOOT_TIPS[leg]), :2] / track.pelvis_height
+    xy = track.positions[:, roles.ROLES.index(FOOT_TIPS[leg]), :2] / track.pelvis_height
     down = track.foot_contacts[:, LEG_ORDER.index(leg)].astype(bool)
     moves = np.diff(xy, axis=0)
     planted = down[:-1] & down[1:]
@@ -168,7 +168,7 @@ def test_the_push_state_is_what_moves_leg_by_leg():
 @pytest.mark.parametrize("leg", LEG_ORDER)
 def test_only_supporting_legs_push(leg: str):
     """A swinging leg's push is off, so it does not drive its own foot backward."""
-    from quadpipe.controller_dsl import load_controller
+    from quadpipe.controllers.language import load_controller
 
     machine = load_controller("leg_by_leg").machines["gait"]
     assert f"{leg}_stance_push" in machine.owned

@@ -10,8 +10,8 @@ import functools
 import numpy as np
 import pytest
 
-from quadpipe import roles as R
-from quadpipe.simulate import simulate
+from quadpipe.anatomy import roles
+from quadpipe.sim.simulation import simulate
 
 WALK_SECONDS = 20.0
 MIN_DISTANCE_HP = 5.0
@@ -39,7 +39,7 @@ def test_the_dog_walks_20_s_without_falling_and_covers_5_hp():
     assert not figures["fell"]
     assert figures["pelvis_height_min_hp"] > MIN_PELVIS_HP
     assert figures["forward_hp"] >= MIN_DISTANCE_HP
-    assert up_axis_tilt_deg(track.rotations[:, R.ROLES.index("thorax")]).max() < UPRIGHT_DEG
+    assert up_axis_tilt_deg(track.rotations[:, roles.ROLES.index("thorax")]).max() < UPRIGHT_DEG
 
 
 @pytest.mark.slow
@@ -68,7 +68,7 @@ def test_on_the_hill_it_climbs_and_descends_without_tumbling():
     assert forward[-1] > HILL_END_HP, "it did not get past the far foot of the hill"
     assert abs(pelvis[-1, 2] - pelvis[0, 2]) < 0.15 * hp  # back down on the ground
     assert not result.metrics["animals"]["dog"]["fell"]
-    assert up_axis_tilt_deg(track.rotations[:, R.ROLES.index("thorax")]).max() < 45.0
+    assert up_axis_tilt_deg(track.rotations[:, roles.ROLES.index("thorax")]).max() < 45.0
 
 
 @pytest.mark.slow
@@ -77,8 +77,8 @@ def test_hit_by_thrown_boxes_it_recovers_and_resumes_toward_the_goal():
     clip = result.clip
     track = clip.animals[0]
     hp = track.pelvis_height
-    thorax = track.positions[:, R.ROLES.index("thorax")]
-    tilt = up_axis_tilt_deg(track.rotations[:, R.ROLES.index("thorax")])
+    thorax = track.positions[:, roles.ROLES.index("thorax")]
+    tilt = up_axis_tilt_deg(track.rotations[:, roles.ROLES.index("thorax")])
     boxes = [prop for prop in clip.props if prop.name.startswith("thrown")]
     assert len(boxes) == len(THROW_TIMES_S)
     for box, throw_time in zip(boxes, THROW_TIMES_S):

@@ -54,7 +54,7 @@ def test_quick_report_has_every_section_with_finite_figures(quick_report):
 
 @pytest.mark.slow
 def test_quick_report_describes_the_machine_and_covers_every_animal_and_controller(quick_report):
-    from quadpipe import configs
+    from quadpipe.core import configs
 
     machine = quick_report["machine"]
     assert all(machine.get(key) not in (None, "") for key in MACHINE_KEYS), machine

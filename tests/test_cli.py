@@ -11,7 +11,7 @@ import json
 import mujoco
 import pytest
 
-from quadpipe import configs
+from quadpipe.core import configs
 from tests.conftest import FIXTURES, REPO
 
 BAD = FIXTURES / "bad_input"

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from quadpipe import roles as R
-from quadpipe.controller_dsl import (
+from quadpipe.anatomy import roles
+from quadpipe.controllers.language import (
     ExprError,
     Scale,
     compile_controller,
@@ -20,12 +20,13 @@ from quadpipe.controller_dsl import (
     scale_for_animals,
     validate_files,
 )
-from quadpipe.controller_dsl import expressions as X
-from quadpipe.controller_dsl import reference
-from quadpipe.controller_dsl import schema as S
-from quadpipe.controller_dsl.units import STANDARD_GRAVITY
-from quadpipe.controller_dsl.validate import ISSUE_CODES
-from quadpipe.errors import QuadpipeError
+from quadpipe.quantities import expressions
+from quadpipe.controllers.language import reference
+from quadpipe.controllers.language.schema import ANGLE, ANGULAR_STIFFNESS, CONDITION, ControllerFile, DIRECTION, ELEMENT_TYPES, FORCE, LENGTH, LENGTH2_FACTOR, POINT, TIME
+from quadpipe.quantities import units
+from quadpipe.quantities.units import STANDARD_GRAVITY
+from quadpipe.controllers.language.validate import ISSUE_CODES
+from quadpipe.core.errors import QuadpipeError
 
 REPO = Path(__file__).resolve().parent.parent
 SHIPPED = REPO / "configs" / "controllers"
@@ -42,7 +43,7 @@ RAT_HP, RAT_KG = 0.0254, 0.3
 def synthetic_rest_points(n: int = 2) -> dict[str, np.ndarray]:
     """Rest positions for every body point: bone i runs from (i cm, 0, 50 cm) down by (i+1) cm."""
     points = {}
-    for index, role in enumerate(R.ROLES):
+    for index, role in enumerate(roles.ROLES):
         start = np.tile([0.01 * index, 0.0, 0.5], (n, 1)) * np.arange(1, n + 1)[:, None]
         end = start - np.array([0.0, 0.0, 0.01 * (index + 1)])
         points[f"{role}.start"], points[f"{role}.end"], points[f"{role}.mid"] = start, end, (start + end) / 2
@@ -89,21 +90,21 @@ def test_numbers_with_units_compile_to_si(text: str, expected: float) -> None:
 
 
 def test_plain_zeros_in_a_vector_take_the_unit_of_the_others(two_animals: Scale) -> None:
-    compiled = compile_quantity("[20 HP, 0, 0]", two_animals, S.POINT)
+    compiled = compile_quantity("[20 HP, 0, 0]", two_animals, POINT)
     assert compiled.constant == pytest.approx(np.array([[20 * DOG_HP, 0, 0], [20 * RAT_HP, 0, 0]]))
     with pytest.raises(ExprError, match="vector components mix units"):
-        compile_quantity([1, 0, "2 cm"], two_animals, S.POINT)
+        compile_quantity([1, 0, "2 cm"], two_animals, POINT)
 
 
 def test_a_unit_binds_to_the_number_before_it_not_to_a_whole_quotient() -> None:
-    namespace = X.Namespace(parameters={"x": X.check("3 m", X.Namespace())})
+    namespace = expressions.Namespace(parameters={"x": expressions.check("3 m", expressions.Namespace())})
     compiled = compile_quantity("x / 2 s", Scale.of(DOG_HP, DOG_KG), namespace=namespace)
-    assert compiled.type == X.Type(X.SCALAR, X.U.VELOCITY)
+    assert compiled.type == expressions.Type(expressions.SCALAR, units.VELOCITY)
     assert compiled.constant == pytest.approx([1.5])
 
 
 def test_animal_units_take_each_animals_value(two_animals: Scale) -> None:
-    torque = compile_quantity("0.5 bw*HP/rad", two_animals, S.ANGULAR_STIFFNESS)
+    torque = compile_quantity("0.5 bw*HP/rad", two_animals, ANGULAR_STIFFNESS)
     expected = 0.5 * np.array([DOG_KG, RAT_KG]) * STANDARD_GRAVITY * np.array([DOG_HP, RAT_HP])
     assert torque.constant == pytest.approx(expected)
     speed = compile_quantity("froude_speed(0.25)", two_animals)
@@ -113,16 +114,16 @@ def test_animal_units_take_each_animals_value(two_animals: Scale) -> None:
 @pytest.mark.parametrize(
     ("text", "expect", "code", "message"),
     [
-        ("20 deg", S.TIME, "wrong-dimension", "expected a time, got an angle"),
-        ("2 cm + 1 s", S.TIME, "dimension-mismatch", "cannot add a length and a time"),
-        ("[0, 0, -1]", S.FORCE, "wrong-type", "expected a force, got a direction vector (no unit)"),
-        ("0.4", S.LENGTH2_FACTOR, "wrong-dimension", "expected a force per squared length, got a number"),
-        ("t > 1 s", S.FORCE, "wrong-type", "expected a force, got a condition (true/false)"),
-        ("1 s < 2 cm", S.CONDITION, "dimension-mismatch", "cannot compare a time and a length"),
-        ("[1, 0, 2 cm]", S.DIRECTION, "dimension-mismatch", "vector components mix units"),
+        ("20 deg", TIME, "wrong-dimension", "expected a time, got an angle"),
+        ("2 cm + 1 s", TIME, "dimension-mismatch", "cannot add a length and a time"),
+        ("[0, 0, -1]", FORCE, "wrong-type", "expected a force, got a direction vector (no unit)"),
+        ("0.4", LENGTH2_FACTOR, "wrong-dimension", "expected a force per squared length, got a number"),
+        ("t > 1 s", FORCE, "wrong-type", "expected a force, got a condition (true/false)"),
+        ("1 s < 2 cm", CONDITION, "dimension-mismatch", "cannot compare a time and a length"),
+        ("[1, 0, 2 cm]", DIRECTION, "dimension-mismatch", "vector components mix units"),
     ],
 )
-def test_dimensions_are_checked(text: str, expect: X.Expect, code: str, message: str) -> None:
+def test_dimensions_are_checked(text: str, expect: expressions.Expect, code: str, message: str) -> None:
     with pytest.raises(ExprError) as caught:
         compile_quantity(text, Scale.of(DOG_HP, DOG_KG), expect)
     assert caught.value.code == code
@@ -152,9 +153,9 @@ def test_unsafe_or_malformed_expressions_are_refused(text: str, code: str) -> No
 
 
 def test_points_sensors_phases_and_contacts_read_the_env_for_every_animal(two_animals: Scale) -> None:
-    namespace = X.Namespace(sensors={"ground": X.Type(X.VECTOR)}, cycles={"pedal"})
+    namespace = expressions.Namespace(sensors={"ground": expressions.Type(expressions.VECTOR)}, cycles={"pedal"})
     text = "norm(lf.foot - lf.top) * (1 if contact(lf) and phase(pedal) < 0.5 else 0) + dot(ground, [0, 0, 1 m])"
-    compiled = compile_quantity(text, two_animals, S.LENGTH, namespace)
+    compiled = compile_quantity(text, two_animals, LENGTH, namespace)
     assert compiled.needs == {"point:lf_fpha1.end", "point:lf_scapula.start", "contact:lf", "phase:pedal", "sensor:ground"}
     env = {
         "point:lf_fpha1.end": np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
@@ -167,10 +168,10 @@ def test_points_sensors_phases_and_contacts_read_the_env_for_every_animal(two_an
 
 
 def test_heading_turns_a_heading_vector_into_the_world(two_animals: Scale) -> None:
-    compiled = compile_quantity("heading([1, 0, 0])", two_animals, S.DIRECTION)
+    compiled = compile_quantity("heading([1, 0, 0])", two_animals, DIRECTION)
     quarter_turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
-    env = {X.HEADING_FRAME_KEY: np.stack([np.eye(3), quarter_turn])}
-    assert compiled.needs == {X.HEADING_FRAME_KEY}
+    env = {expressions.HEADING_FRAME_KEY: np.stack([np.eye(3), quarter_turn])}
+    assert compiled.needs == {expressions.HEADING_FRAME_KEY}
     assert compiled(env) == pytest.approx(np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]))
 
 
@@ -180,7 +181,7 @@ def test_degenerate_values_give_zero_not_nan(two_animals: Scale) -> None:
 
 
 def test_angle_between_vectors(two_animals: Scale) -> None:
-    compiled = compile_quantity("angle([1, 0, 0], [1, 1, 0])", two_animals, S.ANGLE)
+    compiled = compile_quantity("angle([1, 0, 0], [1, 1, 0])", two_animals, ANGLE)
     assert compiled.constant == pytest.approx([np.pi / 4] * 2)
 
 
@@ -203,9 +204,9 @@ def test_shipped_controllers_point_editors_at_the_schema(name: str) -> None:
 def test_rigid_has_the_thesis_segments_in_quadpipe_axes() -> None:
     spec = load_controller("rigid")
     directions = {name: element.direction.vector for name, element in spec.elements.items()}
-    assert directions == {"tail": [-1, 0, -1], "spine": [1, 0, 0], "neck": [1, 0, 1], **{f"{leg}_leg": None for leg in R.LEGS}}
-    tops = {leg: f"{leg}_scapula.start" if leg.endswith("f") else f"{leg}_hip.start" for leg in R.LEGS}
-    assert {leg: spec.elements[f"{leg}_leg"].direction.balance for leg in R.LEGS} == tops
+    assert directions == {"tail": [-1, 0, -1], "spine": [1, 0, 0], "neck": [1, 0, 1], **{f"{leg}_leg": None for leg in roles.LEGS}}
+    tops = {leg: f"{leg}_scapula.start" if leg.endswith("f") else f"{leg}_hip.start" for leg in roles.LEGS}
+    assert {leg: spec.elements[f"{leg}_leg"].direction.balance for leg in roles.LEGS} == tops
     assert (spec.elements["lf_leg"].from_, spec.elements["lf_leg"].to) == ("lf_scapula.start", "lf_fpha1.end")
     assert (spec.elements["rh_leg"].from_, spec.elements["rh_leg"].to) == ("rh_hip.start", "rh_hpha2.end")
 
@@ -219,7 +220,7 @@ def test_length2_strength_is_factor_times_rest_length_squared(two_animals: Scale
 
 
 def test_strengths_scale_with_real_animals() -> None:
-    from quadpipe.animals import load_animal
+    from quadpipe.animals.library import load_animal
 
     scale = scale_for_animals([load_animal("dog"), load_animal("rat")])
     leg = compile_controller(load_controller("rigid"), scale).elements["lh_leg"]
@@ -244,7 +245,7 @@ def test_postures_states_set_the_thesis_leg_ratios(two_animals: Scale) -> None:
     compiled = compile_controller(load_controller("postures"), two_animals)
     machine = compiled.machines["posture"]
     assert machine.initial == "standing"
-    assert set(machine.owned) == {f"{leg}_leg" for leg in R.LEGS}
+    assert set(machine.owned) == {f"{leg}_leg" for leg in roles.LEGS}
     ratios = {
         state: (machine.states[state].elements["lh_leg"].value("elastic", "ratio").constant[0], machine.states[state].elements["lf_leg"].value("elastic", "ratio").constant[0])
         for state in machine.states
@@ -265,7 +266,7 @@ def test_leash_legs_switch_between_support_and_seek() -> None:
         "rh_balance": "rh_hip.start",
     }
     machine = spec.machines["gait"]
-    assert list(machine.states) == ["support"] + [f"{leg}_{state}" for leg in R.LEGS for state in ("seek", "land")]
+    assert list(machine.states) == ["support"] + [f"{leg}_{state}" for leg in roles.LEGS for state in ("seek", "land")]
     assert {"rh_seek", "rh_stance_aim", "rh_length"} <= set(machine.owned)
     assert spec.elements["rh_seek"].enabled is False
     seeking = machine.states["rh_seek"].elements
@@ -274,7 +275,7 @@ def test_leash_legs_switch_between_support_and_seek() -> None:
     assert "rh_length" not in machine.states["rh_land"].elements
     assert machine.transitions[3].when == "rh_tilt > seek_angle and rh_rank >= most_tilted"
     assert "pelvis" not in spec.elements["trunk_springs"].joints
-    assert spec.elements["toe_springs"].joints == [f"{leg}_{toe}" for leg in R.LEGS for toe in (("fpha0", "fpha1") if leg.endswith("f") else ("hpha0", "hpha1", "hpha2"))]
+    assert spec.elements["toe_springs"].joints == [f"{leg}_{toe}" for leg in roles.LEGS for toe in (("fpha0", "fpha1") if leg.endswith("f") else ("hpha0", "hpha1", "hpha2"))]
 
 
 def test_leg_by_leg_removes_the_leash_and_pushes_while_supporting() -> None:
@@ -299,7 +300,7 @@ def test_spine_walk_pedals_rudder_and_slope(two_animals: Scale) -> None:
     assert [rudder.value("reaction", p).constant[0] for p in ("thorax.mid", "pelvis.mid")] == [0.5, 0.5]
     slope = compiled.elements["slope"].value("strength")
     uphill_10_deg = np.array([-np.sin(np.radians(10)), 0.0, np.cos(np.radians(10))])
-    env = {"sensor:ground_normal": np.stack([uphill_10_deg, uphill_10_deg * [-1, 1, 1]]), X.HEADING_FRAME_KEY: np.stack([np.eye(3)] * 2)}
+    env = {"sensor:ground_normal": np.stack([uphill_10_deg, uphill_10_deg * [-1, 1, 1]]), expressions.HEADING_FRAME_KEY: np.stack([np.eye(3)] * 2)}
     strengths = slope(env) / two_animals.bw
     assert strengths == pytest.approx([np.sin(np.radians(10)), -np.sin(np.radians(10))])
 
@@ -402,27 +403,27 @@ def test_unknown_format_and_unknown_name_are_reported() -> None:
 
 def test_committed_json_schema_is_up_to_date() -> None:
     committed = (REPO / reference.SCHEMA_PATH).read_text(encoding="utf-8")
-    assert committed == reference.json_schema_text(), "run: python -m quadpipe.controller_dsl.generate"
+    assert committed == reference.json_schema_text(), "run: python -m quadpipe.controllers.language.generate"
 
 
 def test_committed_reference_docs_are_up_to_date() -> None:
     committed = (REPO / reference.DOCS_PATH).read_text(encoding="utf-8")
-    assert committed == render_docs(committed), "run: python -m quadpipe.controller_dsl.generate"
+    assert committed == render_docs(committed), "run: python -m quadpipe.controllers.language.generate"
 
 
 def test_reference_documents_every_element_key_unit_and_function() -> None:
     text = reference.reference_markdown()
-    for model in S.ELEMENT_TYPES:
+    for model in ELEMENT_TYPES:
         for name, info in model.model_fields.items():
             assert f"| `{info.alias or name}` |" in text
-    for symbol in X.U.UNITS:
+    for symbol in units.UNITS:
         assert f"| `{symbol}` |" in text
-    for function in X.FUNCTIONS.values():
+    for function in expressions.FUNCTIONS.values():
         assert f"`{function.signature}`" in text
 
 
 def test_every_key_of_the_format_has_a_description() -> None:
-    models = [S.ControllerFile, *S.ELEMENT_TYPES, *reference.PARTS]
+    models = [ControllerFile, *ELEMENT_TYPES, *reference.PARTS]
     missing = [f"{model.__name__}.{name}" for model in models for name, info in model.model_fields.items() if not info.description]
     assert missing == []
 
@@ -447,7 +448,7 @@ def test_gait_helpers_sweep_lift_and_wrap() -> None:
     phases = np.array([0.0, 0.325, 0.65, 0.825, 0.999])
 
     def value(text: str, p: float) -> float:
-        return float(X.compile_quantity(text.replace("P", str(float(p))), scale)({})[0])
+        return float(expressions.compile_quantity(text.replace("P", str(float(p))), scale)({})[0])
 
     sweep = [value("leg_sweep(P, 0.65)", p) for p in phases]
     assert sweep[:3] == pytest.approx([1.0, 0.0, -1.0], abs=1e-9)  # back through stance

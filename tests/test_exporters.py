@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from quadpipe.errors import QuadpipeError
+from quadpipe.core.errors import QuadpipeError
 from quadpipe.exporters import export_clip, supported_formats
 from quadpipe.exporters.npz import load_clip
 from tests.clips import BLOW_UP_FRAME, assert_clips_equal, blown_up_clip, dog_clip, two_dog_clip
@@ -617,8 +617,8 @@ def test_bvh_refuses_a_clip_with_two_animals(tmp_path):
 def test_tessellated_solids_are_closed_and_face_outward(kind, size, volume):
     import trimesh
 
-    from quadpipe.clip import Shape
-    from quadpipe.exporters.meshes import shape_mesh
+    from quadpipe.clip.model import Shape
+    from quadpipe.clip.meshes import shape_mesh
 
     shape = Shape(kind, size, pos=(1.0, 2.0, 3.0), quat=(np.cos(0.3), 0.0, np.sin(0.3), 0.0))
     mesh = shape_mesh(shape)
@@ -640,7 +640,7 @@ SHIPPED_CLIP_SECONDS = 1.0
 
 
 def _shipped_cases() -> list[tuple[str, str]]:
-    from quadpipe import configs
+    from quadpipe.core import configs
 
     cases = [("dog", controller) for controller in configs.available("controllers")]
     return cases + [(animal, "spine_walk") for animal in configs.available("animals") if animal != "dog"]
@@ -650,7 +650,7 @@ def _shipped_cases() -> list[tuple[str, str]]:
 @needs_node
 @pytest.mark.parametrize(("animal", "controller"), _shipped_cases())
 def test_every_shipped_controller_and_animal_bakes_valid_gltf_and_usd(animal, controller, tmp_path):
-    from quadpipe.simulate import simulate
+    from quadpipe.sim.simulation import simulate
 
     clip = simulate(animal, controller, seconds=SHIPPED_CLIP_SECONDS).clip
     glb = export_clip(clip, tmp_path / "clip.glb")

@@ -21,13 +21,13 @@ import math
 import numpy as np
 import pytest
 
-from quadpipe import analysis as A
-from quadpipe import configs
-from quadpipe import roles as R
-from quadpipe.clip import Clip
-from quadpipe.recording import Recorder
-from quadpipe.sizing import GRAVITY, natural_time
-from quadpipe.world import Placement
+from quadpipe.analysis import ALEXANDER_COEFFICIENT, ALEXANDER_EXPONENT, AnimalGait, HILDEBRAND_ORDER, analyze_clip, phase_distance, rotate
+from quadpipe.core import configs
+from quadpipe.anatomy import roles
+from quadpipe.clip.model import Clip
+from quadpipe.sim.recording import Recorder
+from quadpipe.animals.sizing import GRAVITY, natural_time
+from quadpipe.world.placement import Placement
 from tests.conftest import built_animal, cached_simulation
 
 ANIMALS = tuple(configs.available("animals"))
@@ -97,14 +97,14 @@ class NaturalTimeRecorder:
 class Measured:
     """A run as measured: the gait analysis, its Froude number and the run's metrics (falls, distance)."""
 
-    gait: A.AnimalGait
+    gait: AnimalGait
     froude: float
     metrics: dict
 
     @classmethod
     def of(cls, recorder: NaturalTimeRecorder, result) -> "Measured":
         """The gait a recorder captured during a simulation `result`."""
-        gait = A.analyze_clip(recorder.clip()).animals[0]
+        gait = analyze_clip(recorder.clip()).animals[0]
         return cls(gait, gait.froude or 0.0, result.metrics["animals"][recorder.animal])
 
 
@@ -115,7 +115,7 @@ def measure(animal: str, controller: str, **parameters: str) -> Measured:
 
 @functools.lru_cache(maxsize=None)
 def _measure(animal: str, controller: str, parameters: tuple[tuple[str, str], ...]) -> Measured:
-    from quadpipe.simulate import simulate
+    from quadpipe.sim.simulation import simulate
 
     time = own_time(animal)
     recorder = NaturalTimeRecorder(animal, SETTLE_NATURAL_TIMES * time)
@@ -124,17 +124,17 @@ def _measure(animal: str, controller: str, parameters: tuple[tuple[str, str], ..
     return Measured.of(recorder, result)
 
 
-def phase_errors(gait: A.AnimalGait, wanted: dict[str, float]) -> dict[str, float]:
+def phase_errors(gait: AnimalGait, wanted: dict[str, float]) -> dict[str, float]:
     """Per leg, how far (cycles) its measured phase is from the wanted one (1 when unmeasured)."""
     return {
-        leg: 1.0 if gait.legs[leg].phase is None else A.phase_distance(gait.legs[leg].phase, phase)
+        leg: 1.0 if gait.legs[leg].phase is None else phase_distance(gait.legs[leg].phase, phase)
         for leg, phase in wanted.items()
     }
 
 
-def describe(gait: A.AnimalGait) -> str:
+def describe(gait: AnimalGait) -> str:
     """The measured gait in one line, for assertion messages."""
-    legs = ", ".join(f"{leg} {gait.legs[leg].phase} duty {gait.legs[leg].duty_factor}" for leg in A.HILDEBRAND_ORDER)
+    legs = ", ".join(f"{leg} {gait.legs[leg].phase} duty {gait.legs[leg].duty_factor}" for leg in HILDEBRAND_ORDER)
     return f"{gait.gait.label}, stride {gait.stride_length_hp} HP: {legs}"
 
 
@@ -149,7 +149,7 @@ MIN_PELVIS_HP = 0.7
 def walk_run(animal: str) -> Measured:
     """20 s of `walk` on the flat scene (its goal 20 HP ahead): the gait measured from 8 to 28
     natural times (before any animal reaches the goal), and the metrics of the whole run."""
-    from quadpipe.simulate import simulate
+    from quadpipe.sim.simulation import simulate
 
     time = own_time(animal)
     recorder = NaturalTimeRecorder(animal, SETTLE_NATURAL_TIMES * time, (SETTLE_NATURAL_TIMES + MEASURE_NATURAL_TIMES) * time)
@@ -211,7 +211,7 @@ COURSE_TOLERANCE_DEG = 20.0
 def trunk_yaw_deg(clip: Clip) -> np.ndarray:
     """Heading of the trunk (pelvis to thorax, horizontal) per frame, degrees from +X."""
     track = clip.animals[0]
-    trunk = track.positions[:, R.ROLES.index("thorax")] - track.positions[:, R.ROLES.index("pelvis")]
+    trunk = track.positions[:, roles.ROLES.index("thorax")] - track.positions[:, roles.ROLES.index("pelvis")]
     return np.degrees(np.arctan2(trunk[:, 1], trunk[:, 0]))
 
 
@@ -221,7 +221,7 @@ def trunk_yaw_deg(clip: Clip) -> np.ndarray:
     [(animal, gait) for gait in ("walk", "trot", "pace", "bound") for animal in ANIMALS],
 )
 def test_every_gait_runs_a_long_time_on_course_without_blowing_up(animal, gait):
-    from quadpipe.simulate import simulate
+    from quadpipe.sim.simulation import simulate
 
     result = simulate(animal, gait, seconds=EVERY_GAIT_NATURAL_TIMES * own_time(animal), parameters={"goal": FAR_GOAL})
     assert not result.metrics["animals"][animal]["fell"]
@@ -245,7 +245,7 @@ def test_footfall_phases_can_be_set_one_by_one():
 @pytest.mark.parametrize("animal", ANIMALS)
 def test_strides_follow_alexanders_law(animal, gait):
     measured = measured_gait(animal, gait)
-    predicted = A.ALEXANDER_COEFFICIENT * measured.froude**A.ALEXANDER_EXPONENT
+    predicted = ALEXANDER_COEFFICIENT * measured.froude**ALEXANDER_EXPONENT
     assert measured.gait.stride_length_hp == pytest.approx(predicted, rel=ALEXANDER_TOLERANCE), (
         f"Fr {measured.froude:.3f}: {describe(measured.gait)}"
     )
@@ -255,7 +255,7 @@ def test_strides_follow_alexanders_law(animal, gait):
 def test_the_dog_walks_at_a_dogs_walking_speed_and_duty_factor():
     dog = measured_gait("dog", "walk").gait
     assert 0.8 <= dog.speed_m_s <= 1.2
-    assert 0.55 <= np.mean([dog.legs[leg].duty_factor for leg in R.LEGS]) <= 0.8
+    assert 0.55 <= np.mean([dog.legs[leg].duty_factor for leg in roles.LEGS]) <= 0.8
 
 
 @pytest.mark.slow
@@ -283,20 +283,20 @@ def window(clip: Clip, start_s: float, stop_s: float) -> Clip:
     return dataclasses.replace(clip, animals=tracks, props=[], sensors={})
 
 
-def auto_gait_windows(animal: str, ramp: dict[str, str], windows: dict[str, tuple[float, float]]) -> tuple[dict, dict[str, A.AnimalGait]]:
+def auto_gait_windows(animal: str, ramp: dict[str, str], windows: dict[str, tuple[float, float]]) -> tuple[dict, dict[str, AnimalGait]]:
     """auto_gait with a ramp of its target: its metrics and the gait of each window (natural times)."""
-    from quadpipe.simulate import simulate
+    from quadpipe.sim.simulation import simulate
 
     recorder = NaturalTimeRecorder(animal, 0.0)
     result = simulate(animal, "auto_gait", seconds=max(stop for _, stop in windows.values()) * own_time(animal),
                       parameters={"goal": FAR_GOAL, **ramp}, extra_controllers=[recorder])
     clip, time = recorder.clip(), own_time(animal)
-    gaits = {name: A.analyze_clip(window(clip, start * time, stop * time)).animals[0] for name, (start, stop) in windows.items()}
+    gaits = {name: analyze_clip(window(clip, start * time, stop * time)).animals[0] for name, (start, stop) in windows.items()}
     return result.metrics["animals"][animal], gaits
 
 
 @functools.lru_cache(maxsize=None)
-def auto_gait_run(animal: str) -> tuple[dict, dict[str, A.AnimalGait]]:
+def auto_gait_run(animal: str) -> tuple[dict, dict[str, AnimalGait]]:
     """auto_gait ramping from a walk to a trot: its metrics and the gait of each window."""
     return auto_gait_windows(animal, AUTO_RAMP, AUTO_NATURAL_TIMES)
 
@@ -319,7 +319,7 @@ AUTO_TOP_NATURAL_TIMES = {"trot": (6.0, 16.0), "bound": (30.0, 44.0)}
 
 
 @functools.lru_cache(maxsize=None)
-def auto_gait_top_run(animal: str) -> tuple[dict, dict[str, A.AnimalGait]]:
+def auto_gait_top_run(animal: str) -> tuple[dict, dict[str, AnimalGait]]:
     """auto_gait ramping from a fast trot to a bound: its metrics and the gait of each window."""
     return auto_gait_windows(animal, AUTO_TOP_RAMP, AUTO_TOP_NATURAL_TIMES)
 
@@ -336,7 +336,7 @@ def test_auto_gait_turns_its_trot_into_a_bound_at_the_top_of_its_range():
 
 
 def test_auto_gait_blends_the_footfalls_continuously_with_the_froude_number():
-    from quadpipe.controller_dsl import compile_controller, load_controller, scale_for_animals
+    from quadpipe.controllers.language import compile_controller, load_controller, scale_for_animals
 
     ramp = {"start_froude": "0.05", "end_froude": "3", "ramp_start": "0 s", "ramp_end": "100 s"}
     compiled = compile_controller(load_controller("auto_gait", ramp), scale_for_animals([built_animal("dog").animal]))
@@ -376,9 +376,9 @@ def test_the_walking_dog_hit_by_20_random_boxes_is_up_and_walking_within_3_s():
     track = clip.animals[0]
     hp, fps = track.pelvis_height, round(clip.fps)
     pelvis = track.positions[:, 0]
-    thorax_index = R.ROLES.index("thorax")
+    thorax_index = roles.ROLES.index("thorax")
     half = (track.rest_end[thorax_index] - track.rest_start[thorax_index]) / 2.0
-    thorax = track.positions[:, thorax_index] + A.rotate(track.rotations[:, thorax_index], half)  # thorax.mid, the boxes' target
+    thorax = track.positions[:, thorax_index] + rotate(track.rotations[:, thorax_index], half)  # thorax.mid, the boxes' target
     tilt = up_axis_tilt_deg(track.rotations[:, thorax_index])
     walk_speed = math.sqrt(0.15 * GRAVITY * hp)  # configs/controllers/walk.yaml: froude 0.15
     boxes = [prop for prop in clip.props if prop.name.startswith("thrown")]

@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from quadpipe import roles as R
-from quadpipe.errors import QuadpipeError
+from quadpipe.anatomy.roles import ROLES
+from quadpipe.core.errors import QuadpipeError
 from quadpipe.importers import load_skeleton, read_raw_skeleton, skeleton_readers
 from quadpipe.importers.maya_ascii import read_skeleton as read_ma
-from quadpipe.rolemap import (
+from quadpipe.anatomy.rolemap import (
     apply_role_map,
     guess_roles,
     load_role_map,
@@ -27,7 +27,7 @@ from quadpipe.rolemap import (
     write_guessed_role_map,
     write_role_map,
 )
-from quadpipe.skeleton import RawSkeleton, Skeleton, assemble
+from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble
 
 FIXTURES = Path(__file__).parent / "fixtures" / "skeletons"
 REFERENCE = FIXTURES / "reference.xml"
@@ -99,7 +99,7 @@ def test_guessing_places_all_roles(path: Path, reference: Skeleton) -> None:
     raw = read_raw_skeleton(path)
     guess = guess_roles(raw)
     assert guess.missing == ()
-    assert sorted(guess.roles.values()) == sorted(R.ROLES)
+    assert sorted(guess.roles.values()) == sorted(ROLES)
     assert_same_bones(assemble(raw, guess.roles), reference, axes=False)
 
 
@@ -189,7 +189,7 @@ def test_role_map_without_roles_sets_units_and_up_then_guesses(tmp_path: Path, r
 
 def test_role_map_replaces_the_roles_of_the_file(tmp_path: Path) -> None:
     map_path = tmp_path / "swap.roles.yaml"
-    lines = [f"  {role}: {role}" for role in R.ROLES if role not in ("tail2", "tail3")]
+    lines = [f"  {role}: {role}" for role in ROLES if role not in ("tail2", "tail3")]
     map_path.write_text("roles:\n" + "\n".join(lines) + "\n  tail2: tail3\n  tail3: tail2\n")
     with pytest.raises(QuadpipeError) as caught:
         load_skeleton(REFERENCE, map_path)

@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 import yaml
 
-from quadpipe.controller_dsl import expressions as X
-from quadpipe.controller_dsl.compile import compile_controller
-from quadpipe.controller_dsl.semantics import load_controller
-from quadpipe.controller_dsl.units import scale_for_animals
-from quadpipe.runtime import ControllerRuntime
-from quadpipe.scene import build_scene, load_scene
-from quadpipe.simulate import simulate
+from quadpipe.quantities.expressions import FUNCTIONS, HEADING_FRAME_KEY
+from quadpipe.controllers.language.compiler import compile_controller
+from quadpipe.controllers.language.semantics import load_controller
+from quadpipe.quantities.units import scale_for_animals
+from quadpipe.controllers.runtime.runtime import ControllerRuntime
+from quadpipe.world.scene import build_scene, load_scene
+from quadpipe.sim.simulation import simulate
 from tests.conftest import built_animal
 
 PROBES: dict[str, str] = {
@@ -97,7 +97,7 @@ def reference_env(runtime: ControllerRuntime, data: mujoco.MjData) -> dict[str, 
     contacts = runtime._arrays["contact"][:, 0] > 0.5
     return {
         "t": np.full(runtime.n, data.time),
-        X.HEADING_FRAME_KEY: runtime.heading_frames(data),
+        HEADING_FRAME_KEY: runtime.heading_frames(data),
         "phase:clock": runtime._arrays["phase"][phase_row] % 1.0,
         "contact:lf": contacts,
         "sensor:tilt": runtime.sensor_values(data)["tilt"],
@@ -105,7 +105,7 @@ def reference_env(runtime: ControllerRuntime, data: mujoco.MjData) -> dict[str, 
 
 
 def test_every_function_of_the_language_is_probed() -> None:
-    assert set(X.FUNCTIONS) <= set(PROBES)
+    assert set(FUNCTIONS) <= set(PROBES)
 
 
 def test_the_kernel_computes_every_function_as_the_reference_does(tmp_path: Path) -> None:

@@ -12,10 +12,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from quadpipe import configs, physics, sizing
-from quadpipe import roles as R
-from quadpipe.model import box_extent, clamped_radii
-from quadpipe.world import Placement, build_world
+from quadpipe.core import configs
+from quadpipe.sim import health as physics
+from quadpipe.animals import sizing
+from quadpipe.anatomy import roles
+from quadpipe.animals.model import box_extent, clamped_radii
+from quadpipe.world.placement import Placement, build_world
 from tests.conftest import built_animal
 
 ANIMALS = configs.available("animals")
@@ -29,14 +31,14 @@ SETTLED_KINETIC_ENERGY = 1e-3
 
 THESIS_FIG7_DOG = {"tail": 186, "pelvis": 1311, "spine": 106, "thorax": 656, "neck": 106, "head": 280, "front leg": 266, "rear leg": 231}
 FIG7_PARTS = {
-    "tail": R.TAIL,
+    "tail": roles.TAIL,
     "pelvis": ("pelvis",),
-    "spine": R.SPINE,
+    "spine": roles.SPINE,
     "thorax": ("thorax",),
-    "neck": R.NECK,
+    "neck": roles.NECK,
     "head": ("head",),
-    "front leg": tuple(f"lf_{b}" for b in R.FRONT_CHAIN),
-    "rear leg": tuple(f"lh_{b}" for b in R.HIND_CHAIN),
+    "front leg": tuple(f"lf_{b}" for b in roles.FRONT_CHAIN),
+    "rear leg": tuple(f"lh_{b}" for b in roles.HIND_CHAIN),
 }
 
 
@@ -51,7 +53,7 @@ def test_compiles_with_every_role_and_no_warning(name):
         model = built.spec.copy().compile()
     assert warnings == []
     bodies = {model.body(i).name for i in range(1, model.nbody)}
-    assert bodies == set(R.ROLES)
+    assert bodies == set(roles.ROLES)
     assert math.isclose(model.body_subtreemass[0], built.animal.mass_kg, rel_tol=1e-9)
     assert model.ngeom == 39 - 1 + 5  # one geom per bone, five for the head
 
@@ -63,10 +65,10 @@ def test_capsules_respect_the_radius_rule(name):
     rule = built.animal.pelvis_height / 75 + 0.001
     assert built.radius == pytest.approx(rule)
     model = built.spec.copy().compile()
-    for role in R.ROLES:
-        if role in R.BOX_BONES or role == R.HEAD_BONE:
+    for role in roles.ROLES:
+        if role in roles.BOX_BONES or role == roles.HEAD_BONE:
             continue
-        neighbours = [role] + list(R.CHILDREN[role]) + ([R.PARENT[role]] if R.PARENT[role] else [])
+        neighbours = [role] + list(roles.CHILDREN[role]) + ([roles.PARENT[role]] if roles.PARENT[role] else [])
         radius = model.geom(role).size[0]
         assert radius <= rule + 1e-12
         assert all(radius <= bones[n].length + 1e-12 for n in neighbours), role
@@ -80,7 +82,7 @@ def test_joints_follow_the_limits_table_through_default_classes(name):
     for role, limit in built.animal.limits.items():
         twist = model.joint(role)
         assert tuple(twist.range) == pytest.approx((limit.twist_min, limit.twist_max))
-        assert built.spec.joint(role).classname.name == R.kind_of(role)
+        assert built.spec.joint(role).classname.name == roles.kind_of(role)
         for suffix, swing in (("_swing1", limit.swing1), ("_swing2", limit.swing2)):
             present = any(model.joint(i).name == role + suffix for i in range(model.njnt))
             assert present == (swing > 0), role + suffix
@@ -100,9 +102,9 @@ def test_dog_part_masses_keep_the_thesis_fig7_proportions():
 @pytest.mark.parametrize("name", ANIMALS)
 def test_boxes_enclose_their_joints(name):
     bones = built_animal(name).animal.skeleton.bones
-    for role in R.BOX_BONES:
+    for role in roles.BOX_BONES:
         centre, half = box_extent(bones[role], bones, built_animal(name).radius)
-        for child in R.CHILDREN[role]:
+        for child in roles.CHILDREN[role]:
             assert np.all(np.abs(bones[child].start - centre) <= half + 1e-12)
 
 
@@ -110,7 +112,7 @@ def test_clamped_radius_never_exceeds_a_neighbour():
     bones = built_animal("rat").animal.skeleton.bones
     radii = clamped_radii(bones, radius=1.0)  # an absurd radius: every bone gets clamped
     for role, radius in radii.items():
-        assert radius == min([bones[role].length] + [bones[n].length for n in R.CHILDREN[role]] + ([bones[R.PARENT[role]].length] if R.PARENT[role] else []))
+        assert radius == min([bones[role].length] + [bones[n].length for n in roles.CHILDREN[role]] + ([bones[roles.PARENT[role]].length] if roles.PARENT[role] else []))
 
 
 @pytest.mark.parametrize(
@@ -157,8 +159,8 @@ def test_dropped_from_rest_it_settles_cleanly(name):
 
 
 def test_same_animal_builds_the_same_model_twice():
-    from quadpipe.animals import load_animal
-    from quadpipe.model import build_animal
+    from quadpipe.animals.library import load_animal
+    from quadpipe.animals.model import build_animal
 
     first = build_animal(load_animal("dog")).spec.copy()
     second = build_animal(load_animal("dog")).spec.copy()

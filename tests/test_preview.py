@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from quadpipe import sizing
-from quadpipe.clip import Shape
-from quadpipe.errors import QuadpipeError
-from quadpipe.preview import app as A
-from quadpipe.preview import window as W
+from quadpipe.animals import sizing
+from quadpipe.clip.model import Shape
+from quadpipe.core.errors import QuadpipeError
+from quadpipe.preview import app
+from quadpipe.preview.window import ARROW_HEAD_ANGLE_DEG, ARROW_HEAD_MAX_HP, CAMERA_START, CHECKER_RGBA, FLOOR_DRAWN_HP, FollowCamera, KEY_BINDINGS, WINDOW_ACTIONS, bound_actions, checker_plane, help_text, overlay_lines, pose_matrices
 from quadpipe.preview.app import Clock, LivePreview, load_replay
 from tests.conftest import FIXTURES, REPO
 
@@ -85,7 +85,7 @@ def test_clock_follows_wall_time_and_caps_catch_up():
     clock = Clock(tick_s=1 / 120, step_ticks=4)
     assert clock.advance(FRAME) == 4
     assert sum(clock.advance(1 / 240) for _ in range(10)) == 5  # fractions of a tick add up
-    assert clock.advance(0.5) == round(A.MAX_CATCH_UP_S * 120)  # a slow frame is not made up in full
+    assert clock.advance(0.5) == round(app.MAX_CATCH_UP_S * 120)  # a slow frame is not made up in full
     assert clock.advance(FRAME) == 4  # and the debt was dropped, not carried
 
 
@@ -99,7 +99,7 @@ def test_clock_pause_step_and_slow_motion():
     assert clock.advance(1.0) == 0
     clock.toggle_pause()
     clock.toggle_slow_motion()
-    assert clock.advance(0.1) == round(0.1 * A.SLOW_MOTION_RATE * 120)
+    assert clock.advance(0.1) == round(0.1 * app.SLOW_MOTION_RATE * 120)
     running = Clock(tick_s=1 / 120, step_ticks=4)
     running.step()  # a step pauses a running clock
     assert running.paused and running.advance(1.0) == 4
@@ -118,7 +118,7 @@ def test_live_pause_step_reset_and_slow_motion():
     preview.perform("pause")
     preview.perform("slow_motion")
     preview.advance(0.1)
-    assert preview.time == pytest.approx(0.5 + FRAME + 0.1 * A.SLOW_MOTION_RATE)
+    assert preview.time == pytest.approx(0.5 + FRAME + 0.1 * app.SLOW_MOTION_RATE)
     moved = preview.data.qpos.copy()
     preview.perform("reset")
     assert preview.time == 0.0
@@ -211,13 +211,13 @@ def test_a_throw_launches_a_pooled_body_at_the_animal():
     hidden = preview.pose().visible.copy()
     body = preview.throw("ball", eye)
     model, data = preview.model, preview.data
-    assert model.body(body).name.startswith(A.POOL_PREFIX + "ball")
+    assert model.body(body).name.startswith(app.POOL_PREFIX + "ball")
     row = list(preview._body_ids).index(body)
     assert not hidden[row] and preview.pose().visible[row]
     dof = model.jnt_dofadr[model.body_jntadr[body]]
     velocity = data.qvel[dof : dof + 3].copy()
     assert data.xpos[body] == pytest.approx(eye)
-    speed = math.sqrt(A.THROW_FROUDE * sizing.GRAVITY * hp)
+    speed = math.sqrt(app.THROW_FROUDE * sizing.GRAVITY * hp)
     flight = np.linalg.norm(target - eye) / speed
     expected = (target - eye) / flight + np.array([0.0, 0.0, sizing.GRAVITY * flight / 2])
     assert velocity == pytest.approx(expected, abs=0.05 * speed)  # the standing dog barely drifts
@@ -237,8 +237,8 @@ def test_a_far_camera_throws_from_the_limit_distance_and_pool_bodies_are_reused(
     hp = preview.world.hp
     far = _xpos(preview, "dog/pelvis") + np.array([0.0, -30 * hp, 0.0])
     first = preview.throw("box", far)
-    target = np.mean([preview.runtime.point(preview.data, p)[0] for p in A.THROW_TARGET_POINTS], axis=0)
-    assert np.linalg.norm(preview.data.xpos[first] - target) == pytest.approx(A.MAX_THROW_DISTANCE_HP * hp)
+    target = np.mean([preview.runtime.point(preview.data, p)[0] for p in app.THROW_TARGET_POINTS], axis=0)
+    assert np.linalg.norm(preview.data.xpos[first] - target) == pytest.approx(app.MAX_THROW_DISTANCE_HP * hp)
     assert preview.data.xpos[first][1] < target[1]  # on the camera's side
     second, third = preview.throw("box", far), preview.throw("box", far)
     assert second != first and third == first
@@ -286,11 +286,11 @@ def test_overlays_sit_on_the_body_points_with_their_colours():
     _run(preview, 0.3)
     hp, weight = preview.world.hp, _weight(preview)
     layers = {layer.name: layer for layer in preview.overlays()}
-    assert list(layers) == list(A.LIVE_OVERLAYS)
+    assert list(layers) == list(app.LIVE_OVERLAYS)
 
     segments = layers["segments"]
     assert len(segments.starts) == 7 and segments.kind == "line"  # tail, spine, neck, four legs
-    assert np.all(segments.colors == A.SEGMENT_RGBA)
+    assert np.all(segments.colors == app.SEGMENT_RGBA)
     pelvis, thorax = _xpos(preview, "dog/pelvis"), _xpos(preview, "dog/thorax")
     spine = np.flatnonzero(np.all(np.isclose(segments.starts, pelvis), axis=1))
     assert len(spine) == 1 and segments.ends[spine[0]] == pytest.approx(thorax)
@@ -298,19 +298,19 @@ def test_overlays_sit_on_the_body_points_with_their_colours():
     balance = layers["balance"]
     tops = [_xpos(preview, f"dog/{bone}") for bone in ("lf_scapula", "rf_scapula", "lh_hip", "rh_hip")]
     assert balance.starts == pytest.approx(np.array(tops))
-    assert np.all(balance.colors == A.BALANCE_RGBA)
+    assert np.all(balance.colors == app.BALANCE_RGBA)
     assert balance.ends - balance.starts == pytest.approx(np.tile([0.0, 0.0, -hp], (4, 1)), abs=0.1 * hp)  # a still dog: straight down
 
     forces, last = layers["forces"], preview.runtime.last
     assert len(forces.starts) == len(last.forces) > 0
     assert np.linalg.norm(forces.ends - forces.starts, axis=1) == pytest.approx(
-        np.linalg.norm(last.forces, axis=1) / weight * A.FORCE_ARROW_HP_PER_BW * hp
+        np.linalg.norm(last.forces, axis=1) / weight * app.FORCE_ARROW_HP_PER_BW * hp
     )
-    assert np.all(forces.colors == A.FORCE_RGBA["segment"])
+    assert np.all(forces.colors == app.FORCE_RGBA["segment"])
 
     contacts = layers["contacts"]
     assert len(contacts.starts) == preview.data.ncon > 0
-    assert np.linalg.norm(contacts.ends - contacts.starts, axis=1) == pytest.approx(A.CONTACT_NORMAL_HP * hp)
+    assert np.linalg.norm(contacts.ends - contacts.starts, axis=1) == pytest.approx(app.CONTACT_NORMAL_HP * hp)
     assert np.all(contacts.ends[:, 2] > contacts.starts[:, 2])  # floor normals point up
     assert len(layers["goal"].starts) == 0  # rigid has no goal
 
@@ -326,7 +326,7 @@ def test_overlays_sit_on_the_body_points_with_their_colours():
 @pytest.fixture(scope="module")
 def baked_clip(tmp_path_factory):
     from quadpipe.exporters.npz import export_npz
-    from quadpipe.simulate import simulate
+    from quadpipe.sim.simulation import simulate
 
     path = tmp_path_factory.mktemp("replay") / "run.npz"
     export_npz(simulate("dog", "rigid", seconds=0.5, scene="throws").clip, path)
@@ -373,51 +373,51 @@ def test_every_key_is_an_open3d_key_bound_to_an_existing_action(baked_clip):
     from open3d.visualization import gui
 
     live, replay = LivePreview("dog", "postures"), load_replay(baked_clip)
-    known = set(live.actions()) | set(replay.actions()) | set(W.WINDOW_ACTIONS)
-    for key, action in W.KEY_BINDINGS.items():
+    known = set(live.actions()) | set(replay.actions()) | set(WINDOW_ACTIONS)
+    for key, action in KEY_BINDINGS.items():
         assert hasattr(gui.KeyName, key), key
         assert action in known, action
-    for name in A.LIVE_OVERLAYS + A.REPLAY_OVERLAYS:
-        assert f"toggle_{name}" in W.KEY_BINDINGS.values()
-    assert "throw_ball" in W.bound_actions(live).values()
-    assert "throw_ball" not in W.bound_actions(replay).values()
-    assert "slow motion" in W.help_text(replay)
+    for name in app.LIVE_OVERLAYS + app.REPLAY_OVERLAYS:
+        assert f"toggle_{name}" in KEY_BINDINGS.values()
+    assert "throw_ball" in bound_actions(live).values()
+    assert "throw_ball" not in bound_actions(replay).values()
+    assert "slow motion" in help_text(replay)
 
 
 def test_checker_floor_tiles_alternate_and_stop_at_the_drawn_size():
-    floor = W.checker_plane(Shape("plane", (2.0, 1.0)), hp=0.5)
+    floor = checker_plane(Shape("plane", (2.0, 1.0)), hp=0.5)
     assert len(floor.vertices) == 4 * 8 * 4 and len(floor.faces) == 2 * 8 * 4
     assert floor.vertices.min(axis=0) == pytest.approx([-2.0, -1.0, 0.0])
     assert floor.vertices.max(axis=0) == pytest.approx([2.0, 1.0, 0.0])
     first, neighbour = floor.colors[0], floor.colors[4]  # the next tile along y
-    assert not np.array_equal(first, neighbour) and tuple(first) in W.CHECKER_RGBA
-    huge = W.checker_plane(Shape("plane", (500.0, 500.0), pos=(1.0, 0.0, 0.0)), hp=1.0)
-    assert huge.vertices[:, 0].max() == pytest.approx(1.0 + W.FLOOR_DRAWN_HP)
+    assert not np.array_equal(first, neighbour) and tuple(first) in CHECKER_RGBA
+    huge = checker_plane(Shape("plane", (500.0, 500.0), pos=(1.0, 0.0, 0.0)), hp=1.0)
+    assert huge.vertices[:, 0].max() == pytest.approx(1.0 + FLOOR_DRAWN_HP)
 
 
 def test_arrows_points_and_poses_as_geometry():
-    arrow = A.layer("forces", "arrow", [[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], (1.0, 0.0, 0.0, 1.0))
-    points, segments, colors = W.overlay_lines(arrow, hp=1.0)
+    arrow = app.layer("forces", "arrow", [[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], (1.0, 0.0, 0.0, 1.0))
+    points, segments, colors = overlay_lines(arrow, hp=1.0)
     assert len(segments) == 5 and colors.shape == (5, 3) and np.all(colors == [1.0, 0.0, 0.0])
     assert points[segments[0]].ravel() == pytest.approx([0, 0, 0, 1, 0, 0])
-    head = W.ARROW_HEAD_MAX_HP  # the head is capped: a quarter of 1 m is longer
+    head = ARROW_HEAD_MAX_HP  # the head is capped: a quarter of 1 m is longer
     for a, b in segments[1:]:
         assert points[a] == pytest.approx([1.0, 0.0, 0.0])
         assert np.linalg.norm(points[b] - points[a]) == pytest.approx(head)
-        assert points[b][0] == pytest.approx(1.0 - head * math.cos(math.radians(W.ARROW_HEAD_ANGLE_DEG)))
-    cross = A.layer("goal", "point", [[1.0, 2.0, 3.0]], None, A.GOAL_RGBA)
-    points, segments, _ = W.overlay_lines(cross, hp=1.0)
+        assert points[b][0] == pytest.approx(1.0 - head * math.cos(math.radians(ARROW_HEAD_ANGLE_DEG)))
+    cross = app.layer("goal", "point", [[1.0, 2.0, 3.0]], None, app.GOAL_RGBA)
+    points, segments, _ = overlay_lines(cross, hp=1.0)
     assert len(segments) == 3
     assert points[segments].mean(axis=1).ravel() == pytest.approx([1.0, 2.0, 3.0] * 3)
-    turn = A.Pose(np.array([[1.0, 2.0, 3.0]]), np.array([[math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)]]), np.array([True]))
-    matrix = W.pose_matrices(turn)[0]
+    turn = app.Pose(np.array([[1.0, 2.0, 3.0]]), np.array([[math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)]]), np.array([True]))
+    matrix = pose_matrices(turn)[0]
     assert matrix[:3, 3] == pytest.approx([1.0, 2.0, 3.0])
     assert matrix[:3, :3] @ [1.0, 0.0, 0.0] == pytest.approx([0.0, 1.0, 0.0])
 
 
 def test_follow_camera_moves_eye_and_target_together():
-    camera = W.FollowCamera(np.zeros(3), hp=1.0)
-    assert np.linalg.norm(camera.start_eye) == pytest.approx(W.CAMERA_START["distance_hp"])
+    camera = FollowCamera(np.zeros(3), hp=1.0)
+    assert np.linalg.norm(camera.start_eye) == pytest.approx(CAMERA_START["distance_hp"])
     eye = np.array([3.0, -2.0, 1.0])
     center, new_eye = camera.follow(np.array([1.0, 0.0, 0.0]), eye, dt=10.0)  # long enough to catch up
     assert center == pytest.approx([1.0, 0.0, 0.0]) and new_eye - eye == pytest.approx([1.0, 0.0, 0.0])
@@ -428,7 +428,7 @@ import json, os, sys, traceback
 import numpy as np
 from open3d.visualization import gui
 from quadpipe.preview.app import LivePreview, THROW_TARGET_POINTS
-from quadpipe.preview import window as W
+from quadpipe.preview.window import ARROW_HEAD_ANGLE_DEG, ARROW_HEAD_MAX_HP, BODY_PREFIX, CAMERA_START, CHECKER_RGBA, FLOOR_DRAWN_HP, FollowCamera, KEY_BINDINGS, OVERLAY_PREFIX, PreviewWindow, STATIC_NAME, WINDOW_ACTIONS, bound_actions, checker_plane, help_text, overlay_lines, pose_matrices
 
 
 class Press:
@@ -439,20 +439,20 @@ class Press:
 def main():
     gui.Application.instance.initialize()
     preview = LivePreview("dog", "rigid")
-    window = W.PreviewWindow(preview, "test", (320, 240))
+    window = PreviewWindow(preview, "test", (320, 240))
     print("window-ready", flush=True)
     for _ in range(3):
         window._on_tick()
     scene = window.widget.scene
-    names = [W.BODY_PREFIX + body.name for body in preview.scenery.bodies]
+    names = [BODY_PREFIX + body.name for body in preview.scenery.bodies]
     pelvis = [body.name for body in preview.scenery.bodies].index("dog/pelvis")
     result = {
         "time_runs": preview.time > 0,
         "all_bodies": all(scene.has_geometry(name) for name in names),
-        "static": scene.has_geometry(W.STATIC_NAME),
-        "parked_visible": bool(scene.geometry_is_visible(W.BODY_PREFIX + "preview-ball0")),
-        "pelvis_transform_error": float(np.abs(np.asarray(scene.get_geometry_transform(names[pelvis])) - W.pose_matrices(preview.pose())[pelvis]).max()),
-        "overlays": sorted(n for n in ("segments", "balance", "forces", "contacts", "goal") if scene.has_geometry(W.OVERLAY_PREFIX + n)),
+        "static": scene.has_geometry(STATIC_NAME),
+        "parked_visible": bool(scene.geometry_is_visible(BODY_PREFIX + "preview-ball0")),
+        "pelvis_transform_error": float(np.abs(np.asarray(scene.get_geometry_transform(names[pelvis])) - pose_matrices(preview.pose())[pelvis]).max()),
+        "overlays": sorted(n for n in ("segments", "balance", "forces", "contacts", "goal") if scene.has_geometry(OVERLAY_PREFIX + n)),
     }
     eye = window._eye()
     target = np.mean([preview.runtime.point(preview.data, p)[0] for p in THROW_TARGET_POINTS], axis=0)
@@ -463,8 +463,8 @@ def main():
     window._on_key(Press("F3"))
     window._on_key(Press("C"))
     window._on_tick()
-    result["ball_visible"] = bool(scene.geometry_is_visible(W.BODY_PREFIX + "preview-ball0"))
-    result["forces_after_toggle"] = scene.has_geometry(W.OVERLAY_PREFIX + "forces")
+    result["ball_visible"] = bool(scene.geometry_is_visible(BODY_PREFIX + "preview-ball0"))
+    result["forces_after_toggle"] = scene.has_geometry(OVERLAY_PREFIX + "forces")
     result["free_camera"] = "free camera" in window.status.text
     window._on_key(Press("SPACE"))
     result["paused"] = preview.clock.paused and "paused" in preview.status_line()
@@ -494,6 +494,6 @@ def test_the_window_draws_the_preview_and_maps_keys_to_actions():
     assert result["pelvis_transform_error"] < 1e-5
     assert {"balance", "forces", "segments"} <= set(result["overlays"]) and "goal" not in result["overlays"]  # rigid has no goal
     assert result["ball_toward_eye"] == pytest.approx(1.0, abs=1e-6)  # thrown from the camera's direction
-    assert result["ball_distance_hp"] <= A.MAX_THROW_DISTANCE_HP + 1e-6
+    assert result["ball_distance_hp"] <= app.MAX_THROW_DISTANCE_HP + 1e-6
     assert result["ball_visible"] and result["forces_after_toggle"] is False
     assert result["free_camera"] and result["paused"]

@@ -9,8 +9,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from quadpipe.errors import QuadpipeError
-from quadpipe.simulate import simulate
+from quadpipe.core.errors import QuadpipeError
+from quadpipe.sim.simulation import simulate
 from tests.conftest import FIXTURES
 
 RUNTIME = FIXTURES / "runtime"

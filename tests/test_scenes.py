@@ -11,14 +11,14 @@ import mujoco
 import numpy as np
 import pytest
 
-from quadpipe import scene as SC
-from quadpipe.controller_dsl import compile_quantity
-from quadpipe.controller_dsl import schema as S
-from quadpipe.controller_dsl.units import STANDARD_GRAVITY, Scale
-from quadpipe.errors import QuadpipeError
+from quadpipe.world.scene import PARK_DEPTH_HP, SCHEMA_PATH, SceneSetup, ThrowEvent, available_scenes, build_scene, flight_time, ground_height, json_schema_text, load_scene, scene_json_schema, write_schema
+from quadpipe.controllers.language import compile_quantity
+from quadpipe.controllers.language.schema import POINT
+from quadpipe.quantities.units import STANDARD_GRAVITY, Scale
+from quadpipe.core.errors import QuadpipeError
 from tests.conftest import REPO, built_animal
 
-SCENES = SC.available_scenes()
+SCENES = available_scenes()
 SHIPPED = REPO / "configs" / "scenes"
 SETTLE_STEPS = 60
 """Physics steps run on every shipped scene (half a second for the dog)."""
@@ -31,8 +31,8 @@ def write_scene(folder: Path, body: str, name: str = "scene.yaml") -> Path:
     return path
 
 
-def build(path_or_name: str | Path, animal: str = "dog") -> tuple[SC.SceneSetup, mujoco.MjModel, mujoco.MjData]:
-    setup = SC.build_scene(SC.load_scene(path_or_name), built_animal(animal))
+def build(path_or_name: str | Path, animal: str = "dog") -> tuple[SceneSetup, mujoco.MjModel, mujoco.MjData]:
+    setup = build_scene(load_scene(path_or_name), built_animal(animal))
     model = setup.spec.compile()
     return setup, model, mujoco.MjData(model)
 
@@ -41,14 +41,14 @@ def surface_height(model: mujoco.MjModel, x: float, y: float = 0.0) -> float:
     """Height of the static world under (x, y)."""
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
-    height = SC.ground_height(model, data, x, y, 1000.0)
+    height = ground_height(model, data, x, y, 1000.0)
     assert height is not None
     return height
 
 
 def error_text(path: Path) -> str:
     with pytest.raises(QuadpipeError) as caught:
-        SC.load_scene(path)
+        load_scene(path)
     return str(caught.value)
 
 
@@ -79,19 +79,19 @@ def test_every_shipped_scene_builds_with_a_dog_and_steps_without_a_warning(name:
 def test_shipped_scenes_point_editors_at_the_schema_and_match_their_file_name(name: str) -> None:
     path = SHIPPED / f"{name}.yaml"
     assert path.read_text(encoding="utf-8").splitlines()[0] == "# yaml-language-server: $schema=../../schemas/scene.schema.json"
-    assert SC.load_scene(name).name == name
+    assert load_scene(name).name == name
 
 
 def test_committed_json_schema_is_up_to_date() -> None:
-    committed = (REPO / SC.SCHEMA_PATH).read_text(encoding="utf-8")
-    assert committed == SC.json_schema_text(), "run: python -m quadpipe.scene"
+    committed = (REPO / SCHEMA_PATH).read_text(encoding="utf-8")
+    assert committed == json_schema_text(), "run: python -m quadpipe.world.scene"
 
 
 def test_json_schema_accepts_shipped_scenes_and_rejects_unknown_keys() -> None:
     jsonschema = pytest.importorskip("jsonschema")
     import yaml
 
-    validator = jsonschema.Draft202012Validator(SC.scene_json_schema())
+    validator = jsonschema.Draft202012Validator(scene_json_schema())
     for name in SCENES:
         assert list(validator.iter_errors(yaml.safe_load((SHIPPED / f"{name}.yaml").read_text()))) == [], name
     assert list(validator.iter_errors({"schema": 1, "name": "x", "terain": []}))
@@ -108,7 +108,7 @@ def test_every_key_of_the_format_has_a_description() -> None:
             for value in node:
                 walk(value)
 
-    walk(SC.scene_json_schema())
+    walk(scene_json_schema())
 
 
 # --------------------------------------------------------------------------- terrain
@@ -193,8 +193,8 @@ def test_the_hill_built_for_the_rat_is_the_dogs_hill_scaled_by_the_pelvis_height
         assert rat.geom(name).pos == pytest.approx(dog.geom(name).pos * ratio)
         assert rat.geom(name).size == pytest.approx(dog.geom(name).size * ratio)
         assert rat.geom(name).quat == pytest.approx(dog.geom(name).quat)
-    dog_goal = compile_quantity(dog_setup.goal_parameters["goal"], Scale.of(1.0, 1.0), S.POINT).constant[0]
-    rat_goal = compile_quantity(rat_setup.goal_parameters["goal"], Scale.of(1.0, 1.0), S.POINT).constant[0]
+    dog_goal = compile_quantity(dog_setup.goal_parameters["goal"], Scale.of(1.0, 1.0), POINT).constant[0]
+    rat_goal = compile_quantity(rat_setup.goal_parameters["goal"], Scale.of(1.0, 1.0), POINT).constant[0]
     assert rat_goal == pytest.approx(dog_goal * ratio)
 
 
@@ -228,7 +228,7 @@ def test_entries_without_species_take_the_given_animal_and_face_their_heading(tm
 def test_the_wrong_number_of_animals_is_an_error(tmp_path: Path) -> None:
     path = write_scene(tmp_path, "animals:\n  - {name: a}\n  - {name: b}\n  - {name: c}\n")
     with pytest.raises(QuadpipeError, match="animal-count"):
-        SC.build_scene(SC.load_scene(path), [built_animal("dog"), built_animal("cat")])
+        build_scene(load_scene(path), [built_animal("dog"), built_animal("cat")])
 
 
 # --------------------------------------------------------------------------- throws
@@ -246,7 +246,7 @@ def throw_scene(tmp_path: Path, heading: str = "0 deg", source: str = "left") ->
     )
 
 
-def launch_now(model: mujoco.MjModel, data: mujoco.MjData, event: SC.ThrowEvent) -> np.ndarray:
+def launch_now(model: mujoco.MjModel, data: mujoco.MjData, event: ThrowEvent) -> np.ndarray:
     """Stop the animal, set the clock to the throw time and run the event; returns the target point."""
     data.qvel[:] = 0.0
     mujoco.mj_forward(model, data)
@@ -312,7 +312,7 @@ def test_a_thrown_object_is_parked_without_collisions_until_its_time_then_thrown
     body = model.body(setup.throws[0].body)
     parked = model.body_pos[body.id].copy()
     hp = setup.placements[0].built.animal.pelvis_height
-    assert parked[2] == pytest.approx(-SC.PARK_DEPTH_HP * hp)
+    assert parked[2] == pytest.approx(-PARK_DEPTH_HP * hp)
     while data.time < THROW_AT - model.opt.timestep / 2:
         event(model, data)
         mujoco.mj_step(model, data)
@@ -351,7 +351,7 @@ def test_a_throw_too_slow_for_its_distance_is_an_error_at_its_speed(tmp_path: Pa
     line = "  - {at: 1 s, shape: sphere, size: [0.1 HP], mass: 0.1 bm, speed: 1 m/s, distance: 3 HP}"
     path = write_scene(tmp_path, f"throws:\n{line}\n")
     with pytest.raises(QuadpipeError) as caught:
-        SC.build_scene(SC.load_scene(path), built_animal("dog"))
+        build_scene(load_scene(path), built_animal("dog"))
     assert str(caught.value) == (
         f"{path}:4:{line.index('1 m/s') + 1}: error throw-out-of-reach: throws.0.speed: "
         "at 1 m/s a throw reaches at most 0.102 m from this direction, not 1.97 m\n"
@@ -362,12 +362,12 @@ def test_a_throw_too_slow_for_its_distance_is_an_error_at_its_speed(tmp_path: Pa
 def test_flight_time_hits_the_point_at_the_speed() -> None:
     for up in (-0.5, 0.0, 0.5):
         direction = np.array([math.sqrt(1 - up**2), 0.0, up])
-        flight = SC.flight_time(5.0, 1.5, up, 9.81)
+        flight = flight_time(5.0, 1.5, up, 9.81)
         launch = -1.5 * direction / flight + np.array([0, 0, 9.81 * flight / 2])
         landing = 1.5 * direction + launch * flight + np.array([0, 0, -9.81 / 2]) * flight**2
         assert landing == pytest.approx([0, 0, 0], abs=1e-12)
         assert np.linalg.norm(launch + np.array([0, 0, -9.81]) * flight) == pytest.approx(5.0)
-    assert SC.flight_time(1.0, 1.0, 0.0, 9.81) is None
+    assert flight_time(1.0, 1.0, 0.0, 9.81) is None
 
 
 def test_a_prop_starts_where_and_how_fast_it_is_told(tmp_path: Path) -> None:
@@ -390,9 +390,9 @@ def test_a_goal_path_is_a_piecewise_linear_expression_in_t(tmp_path: Path) -> No
     setup, _, _ = build(path)
     hp = setup.placements[0].built.animal.pelvis_height
     scale = Scale.of([1.0, 2.0], [1.0, 1.0])
-    goal = compile_quantity(setup.goal_parameters["goal"], scale, S.POINT)
+    goal = compile_quantity(setup.goal_parameters["goal"], scale, POINT)
     assert goal.constant == pytest.approx(np.array([[20 * hp, 0, 0]] * 2))
-    target = compile_quantity(setup.goal_parameters["target"], scale, S.POINT)
+    target = compile_quantity(setup.goal_parameters["target"], scale, POINT)
     expected = {0.0: [5, 0, 0], 2.0: [5, 0, 0], 7.0: [5, 2.5, 0], 12.0: [5, 5, 0], 17.0: [2.5, 5, 0.5], 30.0: [0, 5, 1]}
     for t, point in expected.items():
         assert target({"t": np.array([t, t])}) == pytest.approx(np.array([point, point]) * hp), t
@@ -401,7 +401,7 @@ def test_a_goal_path_is_a_piecewise_linear_expression_in_t(tmp_path: Path) -> No
 def test_goal_path_times_must_increase(tmp_path: Path) -> None:
     path = write_scene(tmp_path, "goals:\n  goal: {path: [[2 s, [5 HP, 0, 0]], [1 s, [6 HP, 0, 0]]]}\n")
     with pytest.raises(QuadpipeError, match="goals.goal.path.1.0: the path's times must increase"):
-        SC.build_scene(SC.load_scene(path), built_animal("dog"))
+        build_scene(load_scene(path), built_animal("dog"))
 
 
 # --------------------------------------------------------------------------- errors
@@ -440,7 +440,7 @@ def test_an_unknown_terrain_type_lists_the_valid_ones(here: Path) -> None:
 
 def test_an_unknown_scene_name_lists_the_valid_ones() -> None:
     with pytest.raises(QuadpipeError) as caught:
-        SC.load_scene("hil")
+        load_scene("hil")
     assert str(caught.value) == (
         "error unknown-scene: there is no scene named 'hil'\n"
         f"  hint: did you mean 'hill'? (valid: {', '.join(SCENES)})"
@@ -480,7 +480,7 @@ def test_every_problem_is_reported_at_once_in_file_order(here: Path) -> None:
 def test_bad_values_are_located_at_the_value(here: Path, item: str, value: str, message: str) -> None:
     write_scene(here, item + "\n")
     with pytest.raises(QuadpipeError) as caught:
-        SC.build_scene(SC.load_scene("scene.yaml"), built_animal("dog"))
+        build_scene(load_scene("scene.yaml"), built_animal("dog"))
     last = item.splitlines()[-1]
     line = 3 + item.count("\n")
     assert str(caught.value).splitlines()[0] == f"scene.yaml:{line}:{last.index(value) + 1}: {message}"
@@ -494,6 +494,6 @@ def test_an_unsupported_schema_version_is_refused(here: Path) -> None:
 
 
 def test_write_schema_writes_the_current_schema(tmp_path: Path) -> None:
-    written = SC.write_schema(tmp_path)
-    assert written == tmp_path / SC.SCHEMA_PATH
-    assert json.loads(written.read_text()) == SC.scene_json_schema()
+    written = write_schema(tmp_path)
+    assert written == tmp_path / SCHEMA_PATH
+    assert json.loads(written.read_text()) == scene_json_schema()

@@ -29,7 +29,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from quadpipe import roles as R
+from quadpipe.anatomy import roles
 
 REPO = Path(__file__).resolve().parent.parent
 OUTPUT_DIR = REPO / "configs" / "skeletons"
@@ -50,11 +50,11 @@ DOG_FIG7_PART_MASSES = {"tail": 186.0, "spine": 106.0, "neck": 106.0, "front leg
 """The thesis's Fig. 7: masses of the dog's capsule parts (arbitrary units)."""
 
 DOG_PART_BONES = {
-    "tail": R.TAIL,
-    "spine": R.SPINE,
-    "neck": R.NECK,
-    "front leg": tuple(f"lf_{bone}" for bone in R.FRONT_CHAIN),
-    "rear leg": tuple(f"lh_{bone}" for bone in R.HIND_CHAIN),
+    "tail": roles.TAIL,
+    "spine": roles.SPINE,
+    "neck": roles.NECK,
+    "front leg": tuple(f"lf_{bone}" for bone in roles.FRONT_CHAIN),
+    "rear leg": tuple(f"lh_{bone}" for bone in roles.HIND_CHAIN),
 }
 """The bones of each Fig. 7 part (one leg of each pair)."""
 
@@ -432,17 +432,17 @@ def build(species: Species) -> tuple[list[Joint], dict[str, float]]:
     hp = species.hp_cm
     joints = [Joint("pelvis", None, (0.0, hp, 0.0))]
     up, forward = _axial_offset(species.pelvis, hp)
-    spine, thorax_at = _axial_chain(R.SPINE, species.spine, "pelvis", (0.0, hp + up, forward), hp)
+    spine, thorax_at = _axial_chain(roles.SPINE, species.spine, "pelvis", (0.0, hp + up, forward), hp)
     joints += spine
-    joints.append(Joint("thorax", R.SPINE[-1], thorax_at))
+    joints.append(Joint("thorax", roles.SPINE[-1], thorax_at))
     up, forward = _axial_offset(species.thorax, hp)
-    neck, head_at = _axial_chain(R.NECK, species.neck, "thorax", (0.0, thorax_at[1] + up, thorax_at[2] + forward), hp)
+    neck, head_at = _axial_chain(roles.NECK, species.neck, "thorax", (0.0, thorax_at[1] + up, thorax_at[2] + forward), hp)
     joints += neck
     up, forward = _axial_offset(species.head, hp)
-    joints.append(Joint("head", R.NECK[-1], head_at, (0.0, head_at[1] + up, head_at[2] + forward)))
+    joints.append(Joint("head", roles.NECK[-1], head_at, (0.0, head_at[1] + up, head_at[2] + forward)))
 
     back, rise = species.tail_root
-    tail, tail_end = _axial_chain(R.TAIL, species.tail, "pelvis", (0.0, hp + rise * hp, -back * hp), hp, backward=True)
+    tail, tail_end = _axial_chain(roles.TAIL, species.tail, "pelvis", (0.0, hp + rise * hp, -back * hp), hp, backward=True)
     tail[-1] = Joint(tail[-1].name, tail[-1].parent, tail[-1].position, tail_end)
     joints += tail
 
@@ -451,16 +451,16 @@ def build(species: Species) -> tuple[list[Joint], dict[str, float]]:
         forward, rise, lateral = species.scapula
         top = (side * lateral * hp, thorax_at[1] + rise * hp, thorax_at[2] + forward * hp)
         leg, scales[prefix] = _leg(
-            prefix, R.FRONT_CHAIN, species.front, "thorax", top, side * species.shoulder_lateral * hp, hp
+            prefix, roles.FRONT_CHAIN, species.front, "thorax", top, side * species.shoulder_lateral * hp, hp
         )
         joints += leg
     for prefix, side in (("lh", 1.0), ("rh", -1.0)):
         back, drop, lateral = species.hip
         top = (side * lateral * hp, hp - drop * hp, -back * hp)
-        leg, scales[prefix] = _leg(prefix, R.HIND_CHAIN, species.hind, "pelvis", top, side * lateral * hp, hp)
+        leg, scales[prefix] = _leg(prefix, roles.HIND_CHAIN, species.hind, "pelvis", top, side * lateral * hp, hp)
         joints += leg
     by_name = {joint.name: joint for joint in joints}
-    return [by_name[role] for role in R.ROLES], scales
+    return [by_name[role] for role in roles.ROLES], scales
 
 
 def bone_lengths(joints: list[Joint]) -> dict[str, float]:
@@ -468,8 +468,8 @@ def bone_lengths(joints: list[Joint]) -> dict[str, float]:
     by_name = {joint.name: joint for joint in joints}
     lengths = {}
     for joint in joints:
-        children = R.CHILDREN[joint.name]
-        end = by_name[R.MAIN_CHILD.get(joint.name, children[0])].position if children else joint.end
+        children = roles.CHILDREN[joint.name]
+        end = by_name[roles.MAIN_CHILD.get(joint.name, children[0])].position if children else joint.end
         lengths[joint.name] = math.dist(joint.position, end)
     return lengths
 

@@ -21,9 +21,9 @@ from typing import Callable
 
 import numpy as np
 
-from quadpipe.atomic import check_writable
-from quadpipe.clip import Clip
-from quadpipe.errors import QuadpipeError
+from quadpipe.core.atomic import check_writable
+from quadpipe.clip.model import Clip
+from quadpipe.core.errors import QuadpipeError
 
 _MODULES = ("gltf", "usd", "bvh", "npz")
 

@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from quadpipe.atomic import write_text
-from quadpipe.clip import AnimalTrack, Clip
-from quadpipe.errors import QuadpipeError
-from quadpipe.exporters.kinematics import local_poses, quat_to_y_up, rest_offsets, to_matrix, to_y_up
+from quadpipe.core.atomic import write_text
+from quadpipe.clip.model import AnimalTrack, Clip
+from quadpipe.core.errors import QuadpipeError
+from quadpipe.clip.kinematics import local_poses, quat_to_y_up, rest_offsets, to_matrix, to_y_up
 
 CM_PER_M = 100.0
 

@@ -23,10 +23,10 @@ from typing import Any
 import numpy as np
 
 from quadpipe import __version__
-from quadpipe.atomic import write_bytes
-from quadpipe.clip import AnimalTrack, Clip, PropTrack
-from quadpipe.exporters.kinematics import continuous, local_poses, normalize, quat_to_y_up, rest_offsets, to_y_up
-from quadpipe.exporters.meshes import TriangleMesh, merge, shape_mesh, shapes_mesh
+from quadpipe.core.atomic import write_bytes
+from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
+from quadpipe.clip.kinematics import continuous, local_poses, normalize, quat_to_y_up, rest_offsets, to_y_up
+from quadpipe.clip.meshes import TriangleMesh, merge, shape_mesh, shapes_mesh
 
 GLB_MAGIC = 0x46546C67
 GLB_VERSION = 2

@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from quadpipe.atomic import write_bytes
-from quadpipe.clip import AnimalTrack, Clip, PropTrack, Shape
-from quadpipe.errors import QuadpipeError
+from quadpipe.core.atomic import write_bytes
+from quadpipe.clip.model import AnimalTrack, Clip, PropTrack, Shape
+from quadpipe.core.errors import QuadpipeError
 
 FORMAT_NAME = "quadpipe-clip"
 FORMAT_VERSION = 1

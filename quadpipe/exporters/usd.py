@@ -27,10 +27,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from quadpipe import __version__
-from quadpipe.atomic import atomic_path
-from quadpipe.clip import AnimalTrack, Clip, PropTrack
-from quadpipe.exporters.kinematics import continuous, local_poses, normalize, rest_offsets
-from quadpipe.exporters.meshes import TriangleMesh, shape_mesh, shapes_mesh
+from quadpipe.core.atomic import atomic_path
+from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
+from quadpipe.clip.kinematics import continuous, local_poses, normalize, rest_offsets
+from quadpipe.clip.meshes import TriangleMesh, shape_mesh, shapes_mesh
 
 if TYPE_CHECKING:
     from pxr import Usd, UsdGeom

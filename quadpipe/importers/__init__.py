@@ -12,9 +12,9 @@ from importlib import import_module
 from pathlib import Path
 from typing import Callable
 
-from quadpipe.errors import QuadpipeError
-from quadpipe.limits import JointLimits
-from quadpipe.skeleton import RawSkeleton, Skeleton, assemble
+from quadpipe.core.errors import QuadpipeError
+from quadpipe.anatomy.limits import JointLimits
+from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble
 
 _MODULES = ("quadpipe_xml", "maya_ascii", "bvh", "limits_table")
 
@@ -73,7 +73,7 @@ def load_skeleton(path: str | Path, role_map: str | Path | None = None) -> Skele
         QuadpipeError: a bad file or role map, or roles that could not be placed (the
             message says what was guessed).
     """
-    from quadpipe.rolemap import resolve_roles
+    from quadpipe.anatomy.rolemap import resolve_roles
 
     resolution = resolve_roles(read_raw_skeleton(path), role_map)
     skeleton = assemble(resolution.raw, resolution.roles)

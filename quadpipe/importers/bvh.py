@@ -33,8 +33,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import NoReturn
 
-from quadpipe.errors import QuadpipeError
-from quadpipe.skeleton import JointRecord, RawSkeleton
+from quadpipe.core.errors import QuadpipeError
+from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
 
 CHANNEL_NAMES = {f"{axis}{kind}" for axis in "xyz" for kind in ("position", "rotation")}
 """Valid CHANNELS entries, lower-cased."""

@@ -34,8 +34,8 @@ from typing import Callable, Iterator, NoReturn
 
 import numpy as np
 
-from quadpipe.errors import QuadpipeError, did_you_mean
-from quadpipe.skeleton import JointRecord, RawSkeleton
+from quadpipe.core.errors import QuadpipeError, did_you_mean
+from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
 
 MAYA_HEADER = "//Maya"
 """Maya refuses `.ma` files that do not start with these six characters."""

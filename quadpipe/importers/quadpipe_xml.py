@@ -16,8 +16,8 @@ from __future__ import annotations
 from pathlib import Path
 from xml.parsers import expat
 
-from quadpipe.errors import QuadpipeError, did_you_mean
-from quadpipe.skeleton import UNIT_TO_METRES, UP_AXES, JointRecord, RawSkeleton
+from quadpipe.core.errors import QuadpipeError, did_you_mean
+from quadpipe.anatomy.skeleton import UNIT_TO_METRES, UP_AXES, JointRecord, RawSkeleton
 
 FORMAT_VERSION = "1"
 JOINT_ATTRIBUTES = {"name", "parent", "role", "position", "axis", "end"}

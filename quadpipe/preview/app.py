@@ -31,17 +31,18 @@ from typing import TYPE_CHECKING, Callable, Literal, Mapping, Sequence
 import mujoco
 import numpy as np
 
-from quadpipe import configs, sizing
-from quadpipe import roles as R
-from quadpipe.clip import Clip, Shape
-from quadpipe.errors import QuadpipeError
-from quadpipe.recording import geom_shape
-from quadpipe.scene import PARK_DEPTH_HP, THROWN_RGBA, vector_text
+from quadpipe.core import configs
+from quadpipe.animals import sizing
+from quadpipe.anatomy import roles
+from quadpipe.clip.model import Clip, Shape
+from quadpipe.core.errors import QuadpipeError
+from quadpipe.sim.recording import geom_shape
+from quadpipe.world.scene import PARK_DEPTH_HP, THROWN_RGBA, vector_text
 
 if TYPE_CHECKING:
-    from quadpipe.runtime import ControllerRuntime
-    from quadpipe.scene import SceneSetup, SceneSpec
-    from quadpipe.simulate import Run
+    from quadpipe.controllers.runtime.runtime import ControllerRuntime
+    from quadpipe.world.scene import SceneSetup, SceneSpec
+    from quadpipe.sim.simulation import Run
 
 # --------------------------------------------------------------------------- constants
 
@@ -125,7 +126,7 @@ OverlayKind = Literal["line", "arrow", "point"]
 ThrowKind = Literal["ball", "box"]
 
 _DRAWABLE_GEOMS = {int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_BOX), int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_PLANE)}
-"""Geom types a preview draws (those a `quadpipe.clip.Shape` can carry)."""
+"""Geom types a preview draws (those a `quadpipe.clip.model.Shape` can carry)."""
 
 
 # --------------------------------------------------------------------------- clock
@@ -389,7 +390,7 @@ class ThrowPool:
 
 def _set_colliding(model: mujoco.MjModel, body: int, on: bool) -> None:
     """A loose body touches the world and the animals and falls (on), or nothing and floats (off)."""
-    from quadpipe.world import WORLD_CONAFFINITY, WORLD_CONTYPE
+    from quadpipe.world.placement import WORLD_CONAFFINITY, WORLD_CONTYPE
 
     contype, conaffinity = (WORLD_CONTYPE, WORLD_CONAFFINITY) if on else (0, 0)
     geoms = slice(int(model.body_geomadr[body]), int(model.body_geomadr[body] + model.body_geomnum[body]))
@@ -462,16 +463,16 @@ class _GoalEnv(dict):
         self.runtime, self.data = runtime, data
 
     def __missing__(self, key: str) -> np.ndarray:
-        from quadpipe.controller_dsl import expressions as X
+        from quadpipe.quantities import expressions
 
         kind, _, rest = key.partition(":")
-        if key == X.TIME_VARIABLE:
+        if key == expressions.TIME_VARIABLE:
             value = np.full(self.runtime.n, self.data.time)
         elif kind == "point":
             value = self.runtime.point(self.data, rest)
         elif kind == "velocity":
             value = self.runtime.point_velocity(self.data, rest)
-        elif key == X.HEADING_FRAME_KEY:
+        elif key == expressions.HEADING_FRAME_KEY:
             value = self.runtime.heading_frames(self.data)
         else:
             raise KeyError(key)
@@ -510,10 +511,10 @@ class LivePreview(_Preview):
     overlay_names = LIVE_OVERLAYS
 
     def __init__(self, animal: str, controller: str, scene: str | None = None, parameters: Mapping[str, str] | None = None, pool_size: int = POOL_SIZE):
-        from quadpipe.animals import load_animal
-        from quadpipe.model import build_animal
-        from quadpipe.scene import SCENE_KIND
-        from quadpipe.simulate import DEFAULT_SCENE
+        from quadpipe.animals.library import load_animal
+        from quadpipe.animals.model import build_animal
+        from quadpipe.world.scene import SCENE_KIND
+        from quadpipe.sim.simulation import DEFAULT_SCENE
 
         self.controller = controller
         self.overrides: dict[str, str] = dict(parameters or {})
@@ -536,12 +537,12 @@ class LivePreview(_Preview):
     # -------------------------------------------------------------- building
 
     def _load_scene(self) -> "SceneSpec":
-        from quadpipe.scene import load_scene
+        from quadpipe.world.scene import load_scene
 
         return load_scene(self.scene_path)
 
     def _build_world(self, scene: "SceneSpec") -> _World:
-        from quadpipe.scene import build_scene
+        from quadpipe.world.scene import build_scene
 
         setup = build_scene(scene, self.built)
         first = setup.placements[0].built.animal
@@ -555,8 +556,8 @@ class LivePreview(_Preview):
         Raises:
             QuadpipeError: the files do not validate, or an override does not fit them.
         """
-        from quadpipe.controller_dsl import compile_controller, load_controller, scale_for_animals
-        from quadpipe.runtime import ControllerRuntime
+        from quadpipe.controllers.language import compile_controller, load_controller, scale_for_animals
+        from quadpipe.controllers.runtime.runtime import ControllerRuntime
 
         placements = world.setup.placements
         declared = load_controller(self.controller).parameters
@@ -569,7 +570,7 @@ class LivePreview(_Preview):
         return ControllerRuntime(compiled, world.model, placements), spec.sources
 
     def _make_run(self, runtime: "ControllerRuntime") -> "Run":
-        from quadpipe.simulate import Run
+        from quadpipe.sim.simulation import Run
 
         world = self.world
         return Run(world.model, world.data, world.setup.placements, [runtime], events=world.setup.events(world.model))
@@ -615,7 +616,7 @@ class LivePreview(_Preview):
         steps = self.clock.advance(wall_dt)
         if self.blow_up:
             return 0
-        from quadpipe.simulate import SimulationBlowUp, check_health
+        from quadpipe.sim.simulation import SimulationBlowUp, check_health
 
         for _ in range(steps):
             self.run.step()
@@ -629,13 +630,13 @@ class LivePreview(_Preview):
         return steps
 
     def _far(self) -> float:
-        from quadpipe.simulate import FAR_AWAY_HP
+        from quadpipe.sim.simulation import FAR_AWAY_HP
 
         return FAR_AWAY_HP * max(p.built.animal.pelvis_height for p in self.world.setup.placements)
 
     def reset(self) -> None:
         """Back to t = 0: the start pose, a fresh runtime of the current controller, thrown bodies parked."""
-        from quadpipe.runtime import ControllerRuntime
+        from quadpipe.controllers.runtime.runtime import ControllerRuntime
 
         world = self.world
         mujoco.mj_resetData(world.model, world.data)
@@ -831,14 +832,14 @@ class LivePreview(_Preview):
 
     def _balance(self) -> OverlayLayer:
         """Gravity + velocity / horizon at each leg's top, one HP long for gravity alone."""
-        from quadpipe.controller_dsl import expressions as X
+        from quadpipe.quantities import expressions
 
         runtime, data = self.runtime, self.data
         gravity = np.asarray(self.model.opt.gravity)
         hp = self._animal_hp()[:, None]
         starts, ends = [], []
-        for leg in R.LEGS:
-            top = X.resolve_point_name(f"{leg}.top")
+        for leg in roles.LEGS:
+            top = expressions.resolve_point_name(f"{leg}.top")
             at = runtime.point(data, top)
             vector = gravity + runtime.point_velocity(data, top) / BALANCE_HORIZON_S
             starts.append(at)

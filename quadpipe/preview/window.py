@@ -2,7 +2,7 @@
 
 A `gui.SceneWidget` shows the scenery of a `LivePreview` or `ReplayPreview`
 (`quadpipe.preview.app`): every body as one mesh (capsules, boxes and spheres tessellated by
-`quadpipe.exporters.meshes`) moved each frame by its pose, the floor as a checkerboard, the
+`quadpipe.clip.meshes`) moved each frame by its pose, the floor as a checkerboard, the
 terrain, a sun casting shadows, a sky-blue background, and the overlays as coloured lines.
 The camera follows the first animal (C switches to a free camera; the mouse orbits either
 way), a text line shows time, clock and states, and errors show in red under it and on the
@@ -23,10 +23,10 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
-from quadpipe.clip import Shape
-from quadpipe.errors import QuadpipeError
-from quadpipe.exporters.kinematics import to_matrix
-from quadpipe.exporters.meshes import TriangleMesh, merge, shape_mesh
+from quadpipe.clip.model import Shape
+from quadpipe.core.errors import QuadpipeError
+from quadpipe.clip.kinematics import to_matrix
+from quadpipe.clip.meshes import TriangleMesh, merge, shape_mesh
 from quadpipe.preview.app import OverlayLayer, Pose, Scenery
 
 if TYPE_CHECKING:
@@ -81,7 +81,7 @@ SKY_RGBA = (0.55, 0.7, 0.85, 1.0)
 """Background colour."""
 
 SUN_DIRECTION = (0.3, 0.2, -1.0)
-"""Direction the sunlight travels in (as `quadpipe.world`'s sun)."""
+"""Direction the sunlight travels in (as `quadpipe.world.placement`'s sun)."""
 
 SUN_INTENSITY = 75000.0
 """Sun illuminance, lux (open3d's default sun is 100000)."""

@@ -1,0 +1,157 @@
+"""The animal library: `configs/animals/<name>.yaml` files, and animals made from bare files.
+
+An animal config names a skeleton file and a limits table (paths relative to the config) and
+carries the thesis's pelvis height and a real body mass:
+
+    name: dog
+    skeleton: ../skeletons/dog.xml
+    limits: ../limits/thesis.tsv
+    pelvis_height_cm: 65.56     # thesis Fig. 6
+    mass_kg: 30.0               # Labrador, breed standard 25-36 kg
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from quadpipe.core import configs
+from quadpipe.core.errors import Issue, QuadpipeError
+from quadpipe.anatomy.limits import JointLimit
+from quadpipe.anatomy.skeleton import Skeleton
+from quadpipe.core.yamlio import load_yaml, validate_document
+
+REFERENCE_HP_M = 0.6556
+"""The thesis's dog pelvis height, the reference size for defaults."""
+
+REFERENCE_MASS_KG = 30.0
+"""A dog of that size weighs about 30 kg (Labrador breed standard: 25-36 kg)."""
+
+HP_MISMATCH_WARNING = 0.05
+"""Warn when the skeleton's pelvis height differs from the config's by more than 5 %."""
+
+
+class AnimalConfig(BaseModel):
+    """Schema of `configs/animals/<name>.yaml`."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field(description="Name of the animal, as used on the command line.")
+    skeleton: str = Field(description="Skeleton file (.xml, .ma, .bvh), relative to this file.")
+    limits: str = Field(description="Joint-limit table (.tsv, .csv), relative to this file.")
+    roles: str | None = Field(None, description="Role map YAML for skeletons whose names are not roles.")
+    pelvis_height_cm: float = Field(gt=0, description="The thesis's HP: pelvis height in centimetres.")
+    mass_kg: float = Field(gt=0, description="Real adult body mass in kilograms; the model weighs this.")
+    description: str = Field("", description="One line for `quadpipe animals`.")
+
+
+@dataclass(frozen=True)
+class Animal:
+    """Everything the model builder needs about one animal.
+
+    Attributes:
+        name: the animal's name.
+        skeleton: the rest-pose skeleton, in metres.
+        limits: joint limits for every jointed role.
+        pelvis_height: HP in metres (drives radius, masses and contact softness).
+        mass_kg: total body mass.
+        source: the config or skeleton file it came from.
+        warnings: non-fatal issues (unplaced joints, HP mismatch).
+    """
+
+    name: str
+    skeleton: Skeleton
+    limits: dict[str, JointLimit]
+    pelvis_height: float
+    mass_kg: float
+    source: str
+    warnings: tuple[Issue, ...] = ()
+
+
+def load_animal(name_or_path: str | Path) -> Animal:
+    """Load a built-in animal by name, or an animal config file by path.
+
+    Raises:
+        QuadpipeError: unknown name (listing the valid ones), bad config, bad skeleton or
+            limits file.
+    """
+    from quadpipe.importers import load_limits, load_skeleton
+
+    path = configs.find_config("animals", name_or_path)
+    doc = load_yaml(path)
+    config = validate_document(AnimalConfig, doc)
+    folder = path.parent
+    skeleton = load_skeleton(folder / config.skeleton, folder / config.roles if config.roles else None)
+    limits = load_limits(folder / config.limits).resolve()
+    hp = config.pelvis_height_cm / 100.0
+    warnings = list(skeleton.warnings)
+    if abs(skeleton.pelvis_height - hp) > HP_MISMATCH_WARNING * hp:
+        warnings.append(
+            Issue(
+                "hp-mismatch",
+                f"the skeleton's pelvis stands {skeleton.pelvis_height * 100:.1f} cm high, the config says {config.pelvis_height_cm} cm",
+                doc.locate(("pelvis_height_cm",)),
+                "sizes follow the config's value; fix whichever is wrong",
+                severity="warning",
+            )
+        )
+    return Animal(config.name, skeleton, limits, hp, config.mass_kg, str(path), tuple(warnings))
+
+
+def animal_from_files(
+    skeleton_path: str | Path,
+    limits_path: str | Path,
+    role_map: str | Path | None = None,
+    mass_kg: float | None = None,
+) -> Animal:
+    """Make an animal from a bare skeleton file and limits table (no config).
+
+    HP is read off the skeleton; without a mass, the animal weighs what a dog scaled to its
+    pelvis height would (mass grows with the cube of size).
+    """
+    from quadpipe.importers import load_limits, load_skeleton
+
+    skeleton = load_skeleton(skeleton_path, role_map)
+    limits = load_limits(limits_path).resolve()
+    hp = skeleton.pelvis_height
+    if mass_kg is None:
+        mass_kg = REFERENCE_MASS_KG * (hp / REFERENCE_HP_M) ** 3
+    return Animal(skeleton.name, skeleton, limits, hp, mass_kg, str(skeleton_path), skeleton.warnings)
+
+
+def default_limits_path() -> Path:
+    """The thesis's limits table shipped with quadpipe."""
+    return configs.config_root() / "limits" / "thesis.tsv"
+
+
+def resolve_animal(
+    source: str | Path,
+    *,
+    limits: str | Path | None = None,
+    role_map: str | Path | None = None,
+    mass_kg: float | None = None,
+) -> Animal:
+    """An animal from a built-in name, an animal config (.yaml) or a bare skeleton file.
+
+    Args:
+        source: `dog`, `configs/animals/dog.yaml`, or `rig.ma` / `rig.bvh` / `rig.xml`.
+        limits: limits table for a bare skeleton (default: the thesis's table).
+        role_map: role map for a bare skeleton.
+        mass_kg: body mass for a bare skeleton (default: a dog scaled to its size).
+    """
+    from quadpipe.importers import skeleton_readers
+
+    suffix = Path(str(source)).suffix.lower()
+    readers = skeleton_readers()
+    if suffix in readers:
+        return animal_from_files(source, limits or default_limits_path(), role_map, mass_kg)
+    if suffix and suffix not in (configs.CONFIG_SUFFIX, ".yml"):
+        raise QuadpipeError.single(
+            "unknown-format",
+            f"{str(source)!r} is neither an animal config nor a skeleton format quadpipe reads",
+            file=str(source),
+            hint=f"skeleton formats: {', '.join(sorted(readers))}; animal configs: .yaml; or an animal name",
+        )
+    return load_animal(source)

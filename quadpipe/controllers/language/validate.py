@@ -1,0 +1,196 @@
+"""`quadpipe validate`: check controller files and report every issue.
+
+`validate_files(paths, fmt)` returns the report text and the exit code (1 when any error
+was found, 0 otherwise). Formats:
+
+- `text`: `file:line:col: error CODE: message`, with `  hint: ...` under it, then a summary;
+- `json`: a list of objects with file, line, column, severity, code, message, hint;
+- `github`: workflow commands (`::error file=F,line=L,col=C::CODE: message`) that GitHub
+  Actions shows as annotations on the pull request.
+
+Paths may be files, folders (every `*.yaml` in them) or built-in controller names. Files are
+shown relative to the working directory when they lie under it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Iterable, Sequence
+
+from quadpipe.controllers.language.semantics import analyze_controller
+from quadpipe.core.errors import Issue, QuadpipeError
+
+FORMATS: tuple[str, ...] = ("text", "json", "github")
+"""Output formats of `validate_files`."""
+
+ISSUE_CODES: dict[str, str] = {
+    "yaml-syntax": "the file is not valid YAML",
+    "duplicate-key": "a key appears twice in one mapping",
+    "file-unreadable": "the file cannot be read",
+    "file-not-found": "a file named on the command line or in `extends` does not exist",
+    "unknown-controller": "`extends` names no built-in controller",
+    "extends-cycle": "controllers extend each other in a loop",
+    "unknown-key": "a key that does not exist in that place",
+    "missing-key": "a required key is missing",
+    "invalid-value": "a value of the wrong shape (text instead of a list, ...)",
+    "unsupported-schema": "the `schema:` version is not one this quadpipe reads",
+    "unknown-element-type": "an element `type` that does not exist",
+    "duplicate-name": "two elements of one file have the same name",
+    "template-name": "an element with `for_each` whose name lacks {leg}",
+    "unknown-placeholder": "a {placeholder} that is not {leg}, or {leg} without `for_each`",
+    "unknown-leg": "a leg or group name that does not exist",
+    "unknown-element": "a reference to an element that does not exist",
+    "bad-override": "an override or state that changes an element's type or name",
+    "name-clash": "a name already taken by a unit, function, role, leg or another name",
+    "bad-name": "a parameter, sensor or cycle name that cannot be used in expressions",
+    "expression-syntax": "an expression that cannot be parsed",
+    "forbidden-syntax": "an expression using syntax that is not allowed",
+    "unknown-name": "an expression using a name that does not exist",
+    "unknown-function": "an expression calling a function that does not exist",
+    "unknown-cycle": "phase() of something that is not a cycle element",
+    "wrong-arguments": "a function called with the wrong number of arguments",
+    "wrong-type": "a value of the wrong kind (a vector where a number is expected, ...)",
+    "wrong-dimension": "a value in the wrong unit (an angle where a time is expected, ...)",
+    "dimension-mismatch": "an expression mixing units that do not go together",
+    "parameter-cycle": "parameters defined in terms of each other in a loop",
+    "unknown-parameter": "a state or override setting a parameter that does not exist",
+    "unknown-role": "a role name that does not exist",
+    "glob-matches-nothing": "a role glob that matches no joint",
+    "no-joint": "a spring on the pelvis, which has no joint",
+    "bad-point": "a body point with an unknown anchor (`.tip` instead of `.end`)",
+    "duplicate-point": "the same body point twice in one mapping",
+    "unknown-frame": "a frame that is not heading, world or a role",
+    "direction-kind": "a direction with none or several of vector, toward, balance",
+    "strength-kind": "a strength with both a force and length2",
+    "zero-vector": "a direction vector of length zero",
+    "unused-key": "a key that does nothing in this combination (horizon without balance, ...)",
+    "nothing-to-do": "a segment with neither a direction nor an elastic",
+    "same-point": "a segment whose two ends are the same point",
+    "bad-weights": "reaction weights that are not positive plain numbers",
+    "parallel-axis": "a cycle whose reference is parallel to its axis",
+    "unknown-state": "a state machine naming a state that does not exist",
+    "not-switchable": "a state switching or changing a sensor or state machine",
+    "state-conflict": "an element changed by two state machines",
+    "unused-parameter": "(warning) a parameter no element uses",
+    "unused-sensor": "(warning) a sensor no expression uses",
+    "unreachable-state": "(warning) a state no transition enters",
+}
+"""Every issue code `validate_files` may report, with what it means."""
+
+
+def _display_path(file: str | None) -> str | None:
+    """A file name relative to the working directory when it lies under it."""
+    if file is None or not os.path.isabs(file):
+        return file
+    relative = os.path.relpath(file)
+    return file if relative.startswith("..") else relative
+
+
+def _displayed(issue: Issue) -> Issue:
+    where = issue.where
+    if where is None or where.file is None:
+        return issue
+    moved = type(where)(_display_path(where.file), where.line, where.column)
+    return Issue(issue.code, issue.message, moved, issue.hint, issue.severity)
+
+
+def expand_paths(paths: Iterable[str | Path]) -> list[str]:
+    """Files to check: folders become their `*.yaml` files (sorted); names stay as given."""
+    found: list[str] = []
+    for path in paths:
+        folder = Path(path)
+        if folder.is_dir():
+            found.extend(str(p) for p in sorted(folder.glob("*.yaml")))
+        else:
+            found.append(str(path))
+    return found
+
+
+def collect_issues(paths: Sequence[str | Path]) -> list[Issue]:
+    """Every issue of every controller named, files in the order given."""
+    issues: list[Issue] = []
+    for path in expand_paths(paths):
+        _, found = analyze_controller(path)
+        issues.extend(_displayed(issue) for issue in found if _displayed(issue) not in issues)
+    return issues
+
+
+def format_text(issues: Sequence[Issue], checked: int) -> str:
+    """Issue lines, then a one-line summary."""
+    errors = sum(issue.severity == "error" for issue in issues)
+    warnings = len(issues) - errors
+    files = f"{checked} file{'s' if checked != 1 else ''}"
+    if not issues:
+        return f"{files} checked: no problems\n"
+    summary = f"{files} checked: {errors} error{'s' if errors != 1 else ''}, {warnings} warning{'s' if warnings != 1 else ''}"
+    return "".join(issue.format() + "\n" for issue in issues) + summary + "\n"
+
+
+def format_json(issues: Sequence[Issue]) -> str:
+    """A JSON list of issue objects."""
+    rows = [
+        {
+            "file": issue.where.file if issue.where else None,
+            "line": issue.where.line if issue.where else None,
+            "column": issue.where.column if issue.where else None,
+            "severity": issue.severity,
+            "code": issue.code,
+            "message": issue.message,
+            "hint": issue.hint,
+        }
+        for issue in issues
+    ]
+    return json.dumps(rows, indent=2, ensure_ascii=False) + "\n"
+
+
+def _escape_data(text: str) -> str:
+    return text.replace("%", "%25").replace("\r", "%0D").replace("\n", "%0A")
+
+
+def _escape_property(text: str) -> str:
+    return _escape_data(text).replace(":", "%3A").replace(",", "%2C")
+
+
+def format_github(issues: Sequence[Issue]) -> str:
+    """GitHub Actions workflow commands, one per issue (hints on a second line)."""
+    lines = []
+    for issue in issues:
+        where = issue.where
+        props = []
+        if where is not None and where.file is not None:
+            props.append(f"file={_escape_property(where.file)}")
+            if where.line is not None:
+                props.append(f"line={where.line}")
+                if where.column is not None:
+                    props.append(f"col={where.column}")
+        message = f"{issue.code}: {issue.message}" + (f"\n  hint: {issue.hint}" if issue.hint else "")
+        command = "error" if issue.severity == "error" else "warning"
+        head = f"::{command} {','.join(props)}" if props else f"::{command}"
+        lines.append(f"{head}::{_escape_data(message)}\n")
+    return "".join(lines)
+
+
+def validate_files(paths: Sequence[str | Path], fmt: str = "text") -> tuple[str, int]:
+    """Check controller files; return the report in `fmt` and the exit code.
+
+    Args:
+        paths: controller files, folders of them, or built-in names.
+        fmt: `text`, `json` or `github`.
+
+    Returns:
+        (report, 1 if any error else 0).
+
+    Raises:
+        QuadpipeError: an unknown format.
+    """
+    if fmt not in FORMATS:
+        raise QuadpipeError.single("unknown-format", f"there is no output format {fmt!r}", hint=f"valid: {', '.join(FORMATS)}")
+    issues = collect_issues(paths)
+    code = 1 if any(issue.severity == "error" for issue in issues) else 0
+    if fmt == "json":
+        return format_json(issues), code
+    if fmt == "github":
+        return format_github(issues), code
+    return format_text(issues, len(expand_paths(paths))), code

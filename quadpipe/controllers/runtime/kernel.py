@@ -1,0 +1,479 @@
+"""The controller kernel: one compiled function that runs a whole controller step.
+
+A controller is lowered (`quadpipe.controllers.runtime.lowering`) to a flat program of instructions over a
+register file, and this module executes it with numba, so a physics step costs one call
+from Python instead of hundreds of small numpy calls.
+
+Registers: `reg[r, animal, xyz]`, float64: a vector per animal, or a scalar in the first
+component (a condition is 1.0 or 0.0). Constants are written into their registers once,
+when the program is built, and never overwritten.
+
+Instructions: rows of `code`, `(op, dst, a, b, c, d, e)`; `a`, `b`, `c` are registers for
+the arithmetic ops, and table indices or jump targets for the others (see each op). An
+elementwise op's `e` holds the vector flags: which of its result and operands are vectors
+(a scalar operand of a vector op is used for all three components).
+
+One call of `run` does, in order:
+1. the prologue: foot contacts per animal and leg (from MuJoCo's contact list), the ground
+   normal under each foot, and the heading frame of each animal;
+2. the instructions `first` to `last`;
+3. when `finish` is set, the epilogue: the joint damping written into the model and the time
+   in state of every machine advanced by one step.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping, Sequence
+
+import numba
+import numpy as np
+
+ZERO_NORM = 1e-12
+"""Vectors shorter than this have no direction (as in `expressions.ZERO_NORM`)."""
+
+HEADING_MIN_NORM = 1e-9
+"""Below this horizontal length, the pelvis-to-thorax direction is undefined: +x is used."""
+
+NORMAL_MIN_NORM = 1e-9
+"""Below this length, the summed contact normals give no direction: up is used."""
+
+MIN_PERIOD_S = 1e-9
+"""Shortest cycle period; a shorter (or zero) one is clamped to it."""
+
+LEG_DUTY_MARGIN = 1e-6
+"""`leg_sweep` and `leg_lift` keep the duty factor this far inside (0, 1)."""
+
+LEG_COUNT = 4
+
+VECTOR_RESULT, VECTOR_A, VECTOR_B, VECTOR_C = 1, 2, 4, 8
+"""the vector flags of an elementwise op (its `e`): the result, operand a, b, c are vectors."""
+
+# Opcodes. Arithmetic (dst, a, b, c are registers), elementwise (see `VECTOR_RESULT`).
+ADD, SUB, MUL, DIV, POW, MIN, MAX, ATAN2 = 1, 2, 3, 4, 5, 6, 7, 8
+LT, LE, GT, GE, AND, OR, STEP = 9, 10, 11, 12, 13, 14, 15
+NEG, NOT, SIN, COS, TAN, ASIN, ACOS, ATAN, SQRT, EXP, LOG, ABS, SIGN, WRAP = 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29
+CLAMP, SMOOTHSTEP, MIX, SELECT, LEG_SWEEP, LEG_LIFT = 30, 31, 32, 33, 34, 35
+# Vector ops (dst, a, b are registers; COMP's b is the component index).
+VEC, COMP, NORM, NORMALIZE, DOT, CROSS, ANGLE, HORIZONTAL = 40, 41, 42, 43, 44, 45, 46, 47
+# Frames: HEADING(dst, a); BODYROT(dst, a, b = row of `frame_body`).
+HEADING, BODYROT = 50, 51
+# Simulation reads: POINT/VELOCITY(dst, a = row of `point_body`); CONTACT(dst, a = leg);
+# PHASE(dst, a = cycle); TIS(dst, a = machine); TIME(dst); GROUND_NORMAL(dst, a = leg bits);
+# MASK(dst, a = machine, b = state).
+POINT, VELOCITY, CONTACT, PHASE, TIS, TIME, GROUND_NORMAL, MASK = 60, 61, 62, 63, 64, 65, 66, 67
+# Control: JUMP_IF_NONE(a = mask register, b = target); ZERO(dst).
+JUMP_IF_NONE, ZERO = 70, 71
+# State: SMOOTH(dst = sensor register, a = raw, b = time constant, c = sensor);
+# ADVANCE(a = cycle, b = period register);
+# TRANSITION(dst = switched register, a = delay, b = condition, c = machine, d = target state,
+# e = bit mask of the source states).
+SMOOTH, ADVANCE, TRANSITION = 80, 81, 82
+# Forces: FORCE(dst = slot, a = point register, b = force register, e = 1: its opposite);
+# SPRING(dst = spring, a = target angle, b = stiffness, c = damping).
+FORCE, SPRING = 90, 91
+
+CODE_WIDTH = 7
+"""Columns of an instruction: op, dst, a, b, c, d, e."""
+
+
+INTEGER_ARRAYS = (
+    "point_body", "frame_body", "leg_of_geom", "animal_of_geom", "heading_points", "spring_start",
+    "spring_dof", "spring_qpos", "spring_twist", "slot_body", "body_root", "state", "sensor_ready",
+)  # fmt: skip
+"""The integer arrays of a runtime, packed into one buffer (`pack`), in this order."""
+(POINT_BODY, FRAME_BODY, LEG_OF_GEOM, ANIMAL_OF_GEOM, HEADING_POINTS, SPRING_START, SPRING_DOF,
+ SPRING_QPOS, SPRING_TWIST, SLOT_BODY, BODY_ROOT, STATE, SENSOR_READY) = range(len(INTEGER_ARRAYS))  # fmt: skip
+
+REAL_ARRAYS = (
+    "point_offset", "base_damping", "slot_point", "slot_force", "phase", "time_in_state",
+    "damping", "contact", "normals", "heading",
+)  # fmt: skip
+"""The float arrays of a runtime, packed into one buffer (`pack`), in this order."""
+(POINT_OFFSET, BASE_DAMPING, SLOT_POINT, SLOT_FORCE, PHASES, TIME_IN_STATE, DAMPING, CONTACTS,
+ NORMALS, HEADING_FRAMES) = range(len(REAL_ARRAYS))  # fmt: skip
+
+
+def pack(arrays: Mapping[str, np.ndarray], names: Sequence[str], dtype: type) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """Copy named arrays into one buffer, so the kernel takes two arguments instead of many.
+
+    Returns:
+        The buffer; its layout, a row `(offset, d0, d1, d2)` per name (missing dimensions
+        are 1); and a view of the buffer per name, shaped as the array given (writing into a
+        view writes into the buffer the kernel reads).
+    """
+    values = [np.asarray(arrays[name], dtype=dtype) for name in names]
+    layout = np.zeros((len(names), 4), dtype=np.int64)
+    offset = 0
+    for row, value in enumerate(values):
+        layout[row] = (offset, *(value.shape + (1,) * (3 - value.ndim)))
+        offset += value.size
+    buffer = np.zeros(offset, dtype=dtype)
+    views = {}
+    for row, (name, value) in enumerate(zip(names, values)):
+        views[name] = buffer[layout[row, 0] : layout[row, 0] + value.size].reshape(value.shape)
+        views[name][...] = value
+    return buffer, layout, views
+
+
+@numba.njit(cache=True)
+def _flat(buffer, layout, row):
+    return buffer[layout[row, 0] : layout[row, 0] + layout[row, 1]]
+
+
+@numba.njit(cache=True)
+def _matrix(buffer, layout, row):
+    start = layout[row, 0]
+    return buffer[start : start + layout[row, 1] * layout[row, 2]].reshape((layout[row, 1], layout[row, 2]))
+
+
+@numba.njit(cache=True)
+def _block(buffer, layout, row):
+    start, d0, d1, d2 = layout[row, 0], layout[row, 1], layout[row, 2], layout[row, 3]
+    return buffer[start : start + d0 * d1 * d2].reshape((d0, d1, d2))
+
+
+@numba.njit(cache=True)
+def _wrap(x: float) -> float:
+    """x modulo 1, as numpy's `mod` computes it (the same single rounding)."""
+    return x - math.floor(x)
+
+
+@numba.njit(cache=True)
+def _smoothstep(e0: float, e1: float, x: float) -> float:
+    if e1 == e0:
+        return 1.0 if x >= e0 else 0.0
+    u = min(max((x - e0) / (e1 - e0), 0.0), 1.0)
+    return u * u * (3.0 - 2.0 * u)
+
+
+@numba.njit(cache=True)
+def _duty(duty: float) -> float:
+    return min(max(duty, LEG_DUTY_MARGIN), 1.0 - LEG_DUTY_MARGIN)
+
+
+@numba.njit(cache=True)
+def _elementwise(op: int, x: float, y: float, z: float) -> float:
+    """One component of an arithmetic op on operands x, y, z."""
+    if op == ADD:
+        return x + y
+    if op == SUB:
+        return x - y
+    if op == MUL:
+        return x * y
+    if op == DIV:
+        return x / y if y != 0.0 else 0.0
+    if op == POW:
+        return x**y
+    if op == MIN:
+        return x if x < y else y
+    if op == MAX:
+        return x if x > y else y
+    if op == ATAN2:
+        return math.atan2(x, y)
+    if op == LT:
+        return 1.0 if x < y else 0.0
+    if op == LE:
+        return 1.0 if x <= y else 0.0
+    if op == GT:
+        return 1.0 if x > y else 0.0
+    if op == GE:
+        return 1.0 if x >= y else 0.0
+    if op == AND:
+        return 1.0 if (x != 0.0 and y != 0.0) else 0.0
+    if op == OR:
+        return 1.0 if (x != 0.0 or y != 0.0) else 0.0
+    if op == STEP:
+        return 1.0 if y >= x else 0.0
+    if op == NEG:
+        return -x
+    if op == NOT:
+        return 1.0 if x == 0.0 else 0.0
+    if op == SIN:
+        return math.sin(x)
+    if op == COS:
+        return math.cos(x)
+    if op == TAN:
+        return math.tan(x)
+    if op == ASIN:
+        return math.asin(min(max(x, -1.0), 1.0))
+    if op == ACOS:
+        return math.acos(min(max(x, -1.0), 1.0))
+    if op == ATAN:
+        return math.atan(x)
+    if op == SQRT:
+        return math.sqrt(max(x, 0.0))
+    if op == EXP:
+        return math.exp(x)
+    if op == LOG:
+        return math.log(max(x, ZERO_NORM))
+    if op == ABS:
+        return abs(x)
+    if op == SIGN:
+        return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else x)
+    if op == WRAP:
+        return _wrap(x)
+    if op == CLAMP:
+        return min(max(x, y), z)
+    if op == SMOOTHSTEP:
+        return _smoothstep(x, y, z)
+    if op == MIX:
+        return x + (y - x) * z
+    if op == SELECT:
+        return y if x != 0.0 else z
+    if op == LEG_SWEEP:
+        duty = _duty(y)
+        if x < duty:
+            return 1.0 - 2.0 * x / duty
+        return 2.0 * _smoothstep(duty, 1.0, x) - 1.0
+    if op == LEG_LIFT:
+        duty = _duty(y)
+        if x < duty:
+            return 0.0
+        return math.sin(math.pi * min(max((x - duty) / (1.0 - duty), 0.0), 1.0))
+    return math.nan
+
+
+@numba.njit(cache=True)
+def _unit_into(out: np.ndarray, x: float, y: float, z: float) -> None:
+    length = math.sqrt(x * x + y * y + z * z)
+    if length > ZERO_NORM:
+        out[0], out[1], out[2] = x / length, y / length, z / length
+    else:
+        out[0], out[1], out[2] = 0.0, 0.0, 0.0
+
+
+@numba.njit(cache=True)
+def _point(xpos, xmat, body, offset, out) -> None:
+    for k in range(3):
+        out[k] = xpos[body, k] + xmat[body, 3 * k] * offset[0] + xmat[body, 3 * k + 1] * offset[1] + xmat[body, 3 * k + 2] * offset[2]
+
+
+@numba.njit(cache=True)
+def _contacts(ncon, geoms, frames, leg_of_geom, animal_of_geom, contact, normals) -> None:
+    """Which feet touch something but their own animal, and the summed normals under them.
+
+    The normal of MuJoCo's contact frame points from its first geom to its second; the one
+    summed points into the foot, up from the ground.
+    """
+    contact[:] = 0.0
+    normals[:] = 0.0
+    for c in range(ncon):
+        for side in range(2):
+            foot = geoms[c, side]
+            other = geoms[c, 1 - side]
+            sign = -1.0 if side == 0 else 1.0
+            leg = leg_of_geom[foot]
+            animal = animal_of_geom[foot]
+            if leg >= 0 and animal_of_geom[other] != animal:
+                contact[animal, leg] = 1.0
+                for k in range(3):
+                    normals[animal, leg, k] += sign * frames[c, k]
+
+
+@numba.njit(cache=True)
+def _headings(xpos, xmat, point_body, point_offset, pelvis, thorax, heading) -> None:
+    """Heading frames (columns: forward, left, up) from pelvis.start toward thorax.start."""
+    a = np.empty(3)
+    b = np.empty(3)
+    for i in range(heading.shape[0]):
+        _point(xpos, xmat, point_body[pelvis, i], point_offset[pelvis, i], a)
+        _point(xpos, xmat, point_body[thorax, i], point_offset[thorax, i], b)
+        fx, fy = b[0] - a[0], b[1] - a[1]
+        length = math.sqrt(fx * fx + fy * fy)
+        if length > HEADING_MIN_NORM:
+            fx, fy = fx / length, fy / length
+        else:
+            fx, fy = 1.0, 0.0
+        heading[i, 0, 0], heading[i, 1, 0], heading[i, 2, 0] = fx, fy, 0.0
+        heading[i, 0, 1], heading[i, 1, 1], heading[i, 2, 1] = -fy, fx, 0.0
+        heading[i, 0, 2], heading[i, 1, 2], heading[i, 2, 2] = 0.0, 0.0, 1.0
+
+
+@numba.njit(cache=True, nogil=True)
+def run(
+    code, reg, integers, integer_layout, reals, real_layout, dt,
+    xpos, xmat, xipos, cvel, subtree_com, qpos, qfrc, xfrc, dof_damping,
+    first, last, finish, time, ncon, contact_geoms, contact_frames,
+):  # fmt: skip
+    """Run instructions `first` to `last` of a controller program (see the module docstring).
+
+    `integers` and `reals` hold the runtime's tables and state (`INTEGER_ARRAYS` and
+    `REAL_ARRAYS`, see `pack`); MuJoCo arrays are the data's and the model's own (forces are
+    added into `xfrc` and `qfrc`, damping written into `dof_damping`). The last seven
+    arguments change every call; `contact_geoms` and `contact_frames` have `ncon` rows (or
+    more: the rest is ignored).
+    """
+    n = reg.shape[1]
+    point_body, frame_body = _matrix(integers, integer_layout, POINT_BODY), _matrix(integers, integer_layout, FRAME_BODY)
+    leg_of_geom, animal_of_geom = _flat(integers, integer_layout, LEG_OF_GEOM), _flat(integers, integer_layout, ANIMAL_OF_GEOM)
+    heading_points, body_root = _flat(integers, integer_layout, HEADING_POINTS), _flat(integers, integer_layout, BODY_ROOT)
+    spring_start, spring_dof = _flat(integers, integer_layout, SPRING_START), _matrix(integers, integer_layout, SPRING_DOF)
+    spring_qpos, spring_twist = _matrix(integers, integer_layout, SPRING_QPOS), _matrix(integers, integer_layout, SPRING_TWIST)
+    slot_body, state = _matrix(integers, integer_layout, SLOT_BODY), _matrix(integers, integer_layout, STATE)
+    sensor_ready = _flat(integers, integer_layout, SENSOR_READY)
+    point_offset, base_damping = _block(reals, real_layout, POINT_OFFSET), _flat(reals, real_layout, BASE_DAMPING)
+    slot_point, slot_force = _block(reals, real_layout, SLOT_POINT), _block(reals, real_layout, SLOT_FORCE)
+    phase, time_in_state = _matrix(reals, real_layout, PHASES), _matrix(reals, real_layout, TIME_IN_STATE)
+    damping, contact = _flat(reals, real_layout, DAMPING), _matrix(reals, real_layout, CONTACTS)
+    normals, heading = _block(reals, real_layout, NORMALS), _block(reals, real_layout, HEADING_FRAMES)
+    _contacts(ncon, contact_geoms, contact_frames, leg_of_geom, animal_of_geom, contact, normals)
+    _headings(xpos, xmat, point_body, point_offset, heading_points[0], heading_points[1], heading)
+    if finish:
+        slot_force[:] = 0.0
+        damping[:] = 0.0
+    pc = first
+    while pc < last:
+        op, dst, a, b, c, d, e = code[pc, 0], code[pc, 1], code[pc, 2], code[pc, 3], code[pc, 4], code[pc, 5], code[pc, 6]
+        pc += 1
+        if op < VEC:
+            width = 3 if e & VECTOR_RESULT else 1
+            sa, sb, sc = (e >> 1) & 1, (e >> 2) & 1, (e >> 3) & 1
+            for i in range(n):
+                for k in range(width):
+                    reg[dst, i, k] = _elementwise(op, reg[a, i, k * sa], reg[b, i, k * sb], reg[c, i, k * sc])
+        elif op == VEC:
+            for i in range(n):
+                reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = reg[a, i, 0], reg[b, i, 0], reg[c, i, 0]
+        elif op == COMP:
+            for i in range(n):
+                value = reg[a, i, b]
+                reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
+        elif op == NORM:
+            for i in range(n):
+                value = math.sqrt(reg[a, i, 0] ** 2 + reg[a, i, 1] ** 2 + reg[a, i, 2] ** 2)
+                reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
+        elif op == NORMALIZE:
+            for i in range(n):
+                _unit_into(reg[dst, i], reg[a, i, 0], reg[a, i, 1], reg[a, i, 2])
+        elif op == DOT:
+            for i in range(n):
+                value = reg[a, i, 0] * reg[b, i, 0] + reg[a, i, 1] * reg[b, i, 1] + reg[a, i, 2] * reg[b, i, 2]
+                reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
+        elif op == CROSS:
+            for i in range(n):
+                x = reg[a, i, 1] * reg[b, i, 2] - reg[a, i, 2] * reg[b, i, 1]
+                y = reg[a, i, 2] * reg[b, i, 0] - reg[a, i, 0] * reg[b, i, 2]
+                z = reg[a, i, 0] * reg[b, i, 1] - reg[a, i, 1] * reg[b, i, 0]
+                reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = x, y, z
+        elif op == ANGLE:
+            u = np.empty(3)
+            v = np.empty(3)
+            for i in range(n):
+                _unit_into(u, reg[a, i, 0], reg[a, i, 1], reg[a, i, 2])
+                _unit_into(v, reg[b, i, 0], reg[b, i, 1], reg[b, i, 2])
+                value = math.acos(min(max(u[0] * v[0] + u[1] * v[1] + u[2] * v[2], -1.0), 1.0))
+                reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
+        elif op == HORIZONTAL:
+            for i in range(n):
+                reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = reg[a, i, 0], reg[a, i, 1], 0.0
+        elif op == HEADING:
+            for i in range(n):
+                x, y, z = reg[a, i, 0], reg[a, i, 1], reg[a, i, 2]
+                for k in range(3):
+                    reg[dst, i, k] = heading[i, k, 0] * x + heading[i, k, 1] * y + heading[i, k, 2] * z
+        elif op == BODYROT:
+            for i in range(n):
+                x, y, z, body = reg[a, i, 0], reg[a, i, 1], reg[a, i, 2], frame_body[b, i]
+                for k in range(3):
+                    reg[dst, i, k] = xmat[body, 3 * k] * x + xmat[body, 3 * k + 1] * y + xmat[body, 3 * k + 2] * z
+        elif op == POINT:
+            for i in range(n):
+                _point(xpos, xmat, point_body[a, i], point_offset[a, i], reg[dst, i])
+        elif op == VELOCITY:
+            p = np.empty(3)
+            for i in range(n):
+                body = point_body[a, i]
+                _point(xpos, xmat, body, point_offset[a, i], p)
+                root = body_root[body]
+                rx, ry, rz = p[0] - subtree_com[root, 0], p[1] - subtree_com[root, 1], p[2] - subtree_com[root, 2]
+                wx, wy, wz = cvel[body, 0], cvel[body, 1], cvel[body, 2]
+                reg[dst, i, 0] = cvel[body, 3] + (wy * rz - wz * ry)
+                reg[dst, i, 1] = cvel[body, 4] + (wz * rx - wx * rz)
+                reg[dst, i, 2] = cvel[body, 5] + (wx * ry - wy * rx)
+        elif op == CONTACT:
+            for i in range(n):
+                reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = contact[i, a]
+        elif op == PHASE:
+            for i in range(n):
+                reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = _wrap(phase[a, i])
+        elif op == TIS:
+            for i in range(n):
+                reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = time_in_state[a, i]
+        elif op == TIME:
+            reg[dst, :, :] = time
+        elif op == GROUND_NORMAL:
+            for i in range(n):
+                x = y = z = 0.0
+                for leg in range(LEG_COUNT):
+                    if (a >> leg) & 1:
+                        x += normals[i, leg, 0]
+                        y += normals[i, leg, 1]
+                        z += normals[i, leg, 2]
+                length = math.sqrt(x * x + y * y + z * z)
+                if length > NORMAL_MIN_NORM:
+                    reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = x / length, y / length, z / length
+                else:
+                    reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = 0.0, 0.0, 1.0
+        elif op == MASK:
+            for i in range(n):
+                reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = 1.0 if state[a, i] == b else 0.0
+        elif op == JUMP_IF_NONE:
+            none = True
+            for i in range(n):
+                if reg[a, i, 0] != 0.0:
+                    none = False
+            if none:
+                pc = b
+        elif op == ZERO:
+            reg[dst, :, :] = 0.0
+        elif op == SMOOTH:
+            for i in range(n):
+                if sensor_ready[c] != 0:
+                    weight = dt / (reg[b, i, 0] + dt)
+                    for k in range(3):
+                        reg[dst, i, k] = reg[dst, i, k] + weight * (reg[a, i, k] - reg[dst, i, k])
+                else:
+                    for k in range(3):
+                        reg[dst, i, k] = reg[a, i, k]
+            sensor_ready[c] = 1
+        elif op == ADVANCE:
+            for i in range(n):
+                phase[a, i] += dt / max(reg[b, i, 0], MIN_PERIOD_S)
+        elif op == TRANSITION:
+            for i in range(n):
+                fires = (
+                    reg[dst, i, 0] == 0.0
+                    and (e >> state[c, i]) & 1
+                    and time_in_state[c, i] >= reg[a, i, 0]
+                    and reg[b, i, 0] != 0.0
+                )
+                if fires:
+                    state[c, i] = d
+                    time_in_state[c, i] = 0.0
+                    reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = 1.0
+        elif op == FORCE:
+            sign = -1.0 if e else 1.0
+            for i in range(n):
+                body = slot_body[dst, i]
+                fx, fy, fz = sign * reg[b, i, 0], sign * reg[b, i, 1], sign * reg[b, i, 2]
+                for k in range(3):
+                    slot_point[dst, i, k] = reg[a, i, k]
+                slot_force[dst, i, 0], slot_force[dst, i, 1], slot_force[dst, i, 2] = fx, fy, fz
+                rx, ry, rz = reg[a, i, 0] - xipos[body, 0], reg[a, i, 1] - xipos[body, 1], reg[a, i, 2] - xipos[body, 2]
+                xfrc[body, 0] += fx
+                xfrc[body, 1] += fy
+                xfrc[body, 2] += fz
+                xfrc[body, 3] += ry * fz - rz * fy
+                xfrc[body, 4] += rz * fx - rx * fz
+                xfrc[body, 5] += rx * fy - ry * fx
+        elif op == SPRING:
+            for j in range(spring_start[dst], spring_start[dst + 1]):
+                for i in range(n):
+                    target = reg[a, i, 0] if spring_twist[j, i] != 0 else 0.0
+                    qfrc[spring_dof[j, i]] += -reg[b, i, 0] * (qpos[spring_qpos[j, i]] - target)
+                    damping[spring_dof[j, i]] += reg[c, i, 0]
+    if finish:
+        for v in range(dof_damping.shape[0]):
+            dof_damping[v] = base_damping[v] + damping[v]
+        time_in_state += dt

@@ -1,0 +1,385 @@
+"""The controller runtime: a compiled controller turned into forces, every physics step.
+
+One `ControllerRuntime` drives every animal of a world at once. The controller is lowered
+once to a kernel program (`quadpipe.controllers.runtime.lowering`), and every step runs it in one call of the
+compiled kernel (`quadpipe.controllers.runtime.kernel`), over all animals. Forces enter MuJoCo as Cartesian
+forces through `data.xfrc_applied` (laid out [force, torque], the torque taken about the
+body's centre of mass) for segments, pairs, pulls and cycles, and as joint torques through
+`data.qfrc_applied` for the stiffness of angular springs. Their damping goes into the
+model's `dof_damping`, which MuJoCo's Euler integrator applies implicitly: explicit damping
+torques are unstable on small bones (a rat's toes), implicit damping never is. The runtime
+therefore owns its model's `dof_damping` (base values restored and added to each step).
+
+Each step (between `mj_step1` and `mj_step2`, so positions and velocities are current):
+1. foot contacts and heading frames are measured;
+2. sensors update (with their low-pass smoothing), cycles advance their phase;
+3. state machines fire their transitions (first that fires wins, per animal);
+4. every force element adds its forces, in the form its machine's current state gives it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Sequence
+
+import mujoco
+import numpy as np
+
+from quadpipe.controllers.runtime.kernel import HEADING_MIN_NORM, INTEGER_ARRAYS, REAL_ARRAYS, pack, run
+from quadpipe.anatomy.roles import LEGS, ROLES
+from quadpipe.controllers.language.compiler import CompiledController, compile_controller
+from quadpipe.controllers.language.semantics import load_controller
+from quadpipe.quantities.units import scale_for_animals
+from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
+from quadpipe.sim.recording import FOOT_BONES
+from quadpipe.world.placement import Placement
+
+WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
+"""Geom groups a ground ray may hit: group 0 only (terrain and props; bones are in
+`quadpipe.animals.model.ANIMAL_GEOM_GROUP`)."""
+
+UP = np.array([0.0, 0.0, 1.0])
+
+
+@dataclass
+class AppliedForces:
+    """The Cartesian forces of one step, for overlays and metrics.
+
+    Attributes:
+        bodies: body id of each force, (K,).
+        points: world point where it acts, (K, 3).
+        forces: the force, (K, 3), newtons.
+        animals: index of the animal it acts on, (K,).
+        kinds: element type that made it, per force.
+    """
+
+    bodies: np.ndarray
+    points: np.ndarray
+    forces: np.ndarray
+    animals: np.ndarray
+    kinds: list[str] = field(default_factory=list)
+
+
+class ControllerRuntime:
+    """Executes one compiled controller on every animal of a compiled world.
+
+    The controller is lowered to a kernel program once (`quadpipe.controllers.runtime.lowering`); each step is
+    then one call of `quadpipe.controllers.runtime.kernel.run` over the model's and data's own arrays.
+
+    Args:
+        compiled: the controller compiled for the placements' animals (same order).
+        model: the compiled world.
+        placements: the animals, in the order of `compiled.scale`.
+    """
+
+    def __init__(self, compiled: CompiledController, model: mujoco.MjModel, placements: Sequence[Placement]):
+        self.compiled, self.model, self.placements = compiled, model, list(placements)
+        self.name = compiled.name
+        self.n = len(placements)
+        self.dt = model.opt.timestep
+        self.gravity = np.array(model.opt.gravity)
+        self._bodies = np.array([[model.body(f"{p.name}/{role}").id for role in ROLES] for p in placements])
+        self._offsets = self._point_offsets()
+        self._animal_of_body = np.full(model.nbody, -1)
+        for index, row in enumerate(self._bodies):
+            self._animal_of_body[row] = index
+        self.program = lower(compiled, self.gravity)
+        self._registers = np.zeros((self.program.registers, self.n, 3))
+        for register, value in self.program.constants.items():
+            self._registers[register] = value
+        arrays = self._bind(self.program) | self._initial_state(self.program)
+        self._integers, self._integer_layout, integer_views = pack(arrays, INTEGER_ARRAYS, np.int64)
+        self._reals, self._real_layout, real_views = pack(arrays, REAL_ARRAYS, np.float64)
+        self._arrays = integer_views | real_views
+        self._last: AppliedForces | None = None
+        self._fixed_for: mujoco.MjData | None = None
+        self._fixed: tuple = ()
+        self._few_contacts = (np.zeros((1, 4), np.int32)[:, ::2], np.zeros((1, 18))[:, ::2])
+        heights = self.program.heights
+        self._height_registers = [register for register, _ in heights]
+        self._height_bodies = np.array([self._body_of(point) for _, point in heights], dtype=np.int64).reshape(-1, self.n)
+        self._height_offsets = np.array([self._offsets[point] for _, point in heights]).reshape(-1, self.n, 3)
+        self._ray_hit = np.zeros(1, dtype=np.int32)
+
+    # ------------------------------------------------------------------ set-up
+
+    def _point_offsets(self) -> dict[str, np.ndarray]:
+        """Canonical point `role.anchor` -> offset in the role's body frame, (n, 3)."""
+        offsets = {}
+        for role in ROLES:
+            vectors = np.array([p.built.animal.skeleton[role].end - p.built.animal.skeleton[role].start for p in self.placements])
+            offsets[f"{role}.start"] = np.zeros((self.n, 3))
+            offsets[f"{role}.end"] = vectors
+            offsets[f"{role}.mid"] = vectors / 2.0
+        return offsets
+
+    def _body_of(self, point: str) -> np.ndarray:
+        """(n,) body ids of the bone a canonical point lies on."""
+        return self._bodies[:, ROLES.index(point.partition(".")[0])]
+
+    def _bind(self, program: Program) -> dict[str, np.ndarray]:
+        """The program's symbolic names bound to this model's ids (the kernel's tables)."""
+        model = self.model
+        leg_of_geom, animal_of_geom = np.full(model.ngeom, -1), np.full(model.ngeom, -1)
+        for animal, row in enumerate(self._bodies):
+            animal_of_geom[np.isin(model.geom_bodyid, row)] = animal
+        for leg_index, leg in enumerate(LEGS):
+            for placement in self.placements:
+                for bone in FOOT_BONES[leg]:
+                    body = model.body(f"{placement.name}/{bone}").id
+                    start = model.body_geomadr[body]
+                    leg_of_geom[start : start + model.body_geomnum[body]] = leg_index
+        dofs, qpos, twist = self._spring_tables(program.springs)
+        return {
+            "point_body": np.array([self._body_of(p) for p in program.points], dtype=np.int64).reshape(-1, self.n),
+            "point_offset": np.array([self._offsets[p] for p in program.points]).reshape(-1, self.n, 3),
+            "frame_body": np.array([self._body_of(f"{role}.start") for role in program.frames], dtype=np.int64).reshape(-1, self.n),
+            "leg_of_geom": leg_of_geom.astype(np.int64),
+            "animal_of_geom": animal_of_geom.astype(np.int64),
+            "heading_points": np.array([program.points.index(p) for p in HEADING_POINTS], dtype=np.int64),
+            "spring_start": np.cumsum([0] + [len(rows) for rows in dofs]).astype(np.int64),
+            "spring_dof": np.concatenate(dofs + [np.zeros((0, self.n), np.int64)]).astype(np.int64),
+            "spring_qpos": np.concatenate(qpos + [np.zeros((0, self.n), np.int64)]).astype(np.int64),
+            "spring_twist": np.concatenate(twist + [np.zeros((0, self.n), bool)]).astype(np.bool_),
+            "slot_body": np.array([self._body_of(point) for point, _ in program.slots], dtype=np.int64).reshape(-1, self.n),
+            "body_root": model.body_rootid.astype(np.int64),
+            "base_damping": model.dof_damping.copy(),
+        }
+
+    def _spring_tables(self, springs: Sequence[tuple[str, ...]]) -> tuple[list[np.ndarray], ...]:
+        """Per spring: (J, n) dof addresses, qpos addresses, and whether each is a twist."""
+        dofs, qpos, twist = [], [], []
+        for roles in springs:
+            rows_d, rows_q, rows_t = [], [], []
+            for role in roles:
+                for suffix in ("", "_swing1", "_swing2"):
+                    joints = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, f"{p.name}/{role}{suffix}") for p in self.placements]
+                    if min(joints) >= 0:
+                        rows_d.append(self.model.jnt_dofadr[joints])
+                        rows_q.append(self.model.jnt_qposadr[joints])
+                        rows_t.append(np.full(self.n, suffix == ""))
+            dofs.append(np.array(rows_d, dtype=np.int64).reshape(-1, self.n))
+            qpos.append(np.array(rows_q, dtype=np.int64).reshape(-1, self.n))
+            twist.append(np.array(rows_t, dtype=bool).reshape(-1, self.n))
+        return dofs, qpos, twist
+
+    def _initial_state(self, program: Program) -> dict[str, np.ndarray]:
+        """The arrays the kernel keeps between steps, at the start."""
+        machines = self.compiled.machines
+        return {
+            "phase": np.zeros((len(program.cycles), self.n)),
+            "state": np.array([[names.index(machines[m].initial)] * self.n for m, names in program.machines.items()], dtype=np.int64).reshape(-1, self.n),
+            "time_in_state": np.zeros((len(program.machines), self.n)),
+            "sensor_ready": np.zeros(len(program.sensors), dtype=np.bool_),
+            "damping": np.zeros(self.model.nv),
+            "contact": np.zeros((self.n, len(LEGS))),
+            "normals": np.zeros((self.n, len(LEGS), 3)),
+            "heading": np.zeros((self.n, 3, 3)),
+            "slot_point": np.zeros((len(program.slots), self.n, 3)),
+            "slot_force": np.zeros((len(program.slots), self.n, 3)),
+        }
+
+    # ------------------------------------------------------------------ geometry (overlays, goals)
+
+    def point(self, data: mujoco.MjData, point: str) -> np.ndarray:
+        """World position of a canonical body point for every animal, (n, 3)."""
+        bodies = self._body_of(point)
+        rotations = data.xmat[bodies].reshape(-1, 3, 3)
+        return data.xpos[bodies] + np.einsum("nij,nj->ni", rotations, self._offsets[point])
+
+    def point_velocity(self, data: mujoco.MjData, point: str) -> np.ndarray:
+        """World linear velocity of a canonical body point, (n, 3)."""
+        return self._velocity_at(data, self._body_of(point), self.point(data, point))
+
+    def _velocity_at(self, data: mujoco.MjData, bodies: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Linear velocity of world points fixed to bodies (from MuJoCo's com-based cvel)."""
+        roots = data.subtree_com[self.model.body_rootid[bodies]]
+        angular, linear = data.cvel[bodies, :3], data.cvel[bodies, 3:]
+        return linear + np.cross(angular, points - roots)
+
+    def heading_frames(self, data: mujoco.MjData) -> np.ndarray:
+        """(n, 3, 3) rotations from each animal's heading frame to the world.
+
+        The heading's x is the horizontal direction from pelvis to thorax, z is up.
+        """
+        forward = self.point(data, "thorax.start") - self.point(data, "pelvis.start")
+        forward[:, 2] = 0.0
+        norm = np.linalg.norm(forward, axis=1, keepdims=True)
+        forward = np.where(norm > HEADING_MIN_NORM, forward / np.maximum(norm, 1e-12), np.array([1.0, 0.0, 0.0]))
+        left = np.cross(UP, forward)
+        return np.stack([forward, left, np.broadcast_to(UP, forward.shape)], axis=-1)
+
+    def _heights(self, data: mujoco.MjData) -> None:
+        """Fill the raw value of each `height` sensor: the ground (or a prop) below its point.
+
+        Every sensor's point is placed in one vectorised step, then one ray is cast per point.
+        """
+        bodies = self._height_bodies
+        rotations = data.xmat[bodies].reshape(*bodies.shape, 3, 3)
+        points = data.xpos[bodies] + np.einsum("hnij,hnj->hni", rotations, self._height_offsets)
+        registers, model, hit = self._registers, self.model, self._ray_hit
+        for register, row in zip(self._height_registers, points):
+            for animal, at in enumerate(row):
+                distance = mujoco.mj_ray(model, data, at, -UP, WORLD_GEOM_GROUPS, 1, -1, hit)
+                registers[register, animal] = distance if distance >= 0 else at[2]
+
+    # ------------------------------------------------------------------ step
+
+    def apply(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Add this step's forces to `data.xfrc_applied` and `data.qfrc_applied`."""
+        self._run(data, len(self.program.code), finish=True)
+        self._last = None
+
+    def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:
+        """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
+        if self.program.heights:
+            self._heights(data)
+        ncon = data.ncon
+        run(*self._arguments(data), 0, last, finish, data.time, ncon, *self._contact_arrays(data, ncon))
+
+    def _contact_arrays(self, data: mujoco.MjData, ncon: int) -> tuple[np.ndarray, np.ndarray]:
+        """The geoms and frames of the contacts: views into MuJoCo's contact structs.
+
+        Those views are strided; one of a single contact (or none) would count as
+        contiguous, a different argument type that numba would load a second kernel for.
+        So up to one contact is copied into a strided buffer of our own.
+        """
+        if ncon >= 2:
+            contacts = data.contact
+            return contacts.geom, contacts.frame
+        geoms, frames = self._few_contacts
+        if ncon == 1:
+            geoms[0], frames[0] = data.contact.geom[0], data.contact.frame[0]
+        return geoms, frames
+
+    def _arguments(self, data: mujoco.MjData) -> tuple:
+        """The kernel's arguments that stay the same from step to step (views of `data`'s arrays)."""
+        if self._fixed_for is not data:
+            self._fixed = (
+                self.program.code, self._registers, self._integers, self._integer_layout, self._reals, self._real_layout, self.dt,
+                data.xpos, data.xmat, data.xipos, data.cvel, data.subtree_com, data.qpos,
+                data.qfrc_applied, data.xfrc_applied, self.model.dof_damping,
+            )  # fmt: skip
+            self._fixed_for = data
+        return self._fixed
+
+    @property
+    def last(self) -> AppliedForces:
+        """The Cartesian forces of the last step (for overlays and metrics)."""
+        if self._last is None:
+            slots = self.program.slots
+            bodies = self._arrays["slot_body"].reshape(-1)
+            self._last = AppliedForces(
+                bodies,
+                self._arrays["slot_point"].reshape(-1, 3).copy(),
+                self._arrays["slot_force"].reshape(-1, 3).copy(),
+                self._animal_of_body[bodies],
+                [kind for _, kind in slots for _ in range(self.n)],
+            )
+        return self._last
+
+    @last.setter
+    def last(self, forces: AppliedForces) -> None:
+        self._last = forces
+
+    def sensor_values(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
+        """Every sensor's current (smoothed) value: (n, 3) vectors, (n,) scalars.
+
+        Before the first step, the sensors are measured now (and that value starts their
+        smoothing).
+        """
+        if not self._arrays["sensor_ready"].all():
+            self._run(data, self.program.sensor_end, finish=False)
+        registers = self._registers
+        return {name: registers[r].copy() if vector else registers[r, :, 0].copy() for name, (r, vector) in self.program.sensors.items()}
+
+    def frame_values(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
+        """Values recorded once per frame into the clip, per animal: every sensor
+        (`<sensor>:<animal>`), the net controller force (`controller_force:<animal>`, N) and
+        the power of the controller's forces (`controller_power:<animal>`, W: sum of force x
+        velocity of the point it acts on, at the last step)."""
+        values = {}
+        forces = self.last
+        velocities = self._velocity_at(data, forces.bodies, forces.points) if len(forces.bodies) else np.zeros((0, 3))
+        power = np.einsum("ki,ki->k", forces.forces, velocities)
+        sensors = self.sensor_values(data)
+        for index, placement in enumerate(self.placements):
+            mine = forces.animals == index
+            values[f"controller_force:{placement.name}"] = forces.forces[mine].sum(axis=0)
+            values[f"controller_power:{placement.name}"] = np.array(power[mine].sum())
+            for name, value in sensors.items():
+                values[f"{name}:{placement.name}"] = value[index]
+        return values
+
+    def adopt(self, previous: "ControllerRuntime") -> None:
+        """Take over the running state of the runtime this one replaces (a hot reload).
+
+        Cycle phases, machine states (with their time in state) and smoothed sensor values are
+        kept for every cycle, machine, state and sensor this controller still has, so a
+        reloaded walk keeps its footfalls.
+        """
+        if previous.n != self.n:
+            return
+        old, new = previous.program, self.program
+        for row, name in enumerate(old.cycles):
+            if name in new.cycles:
+                self._arrays["phase"][new.cycles.index(name)] = previous._arrays["phase"][row]
+        for row, (machine, old_names) in enumerate(old.machines.items()):
+            names = new.machines.get(machine)
+            if names is None:
+                continue
+            mine = list(new.machines).index(machine)
+            for animal, index in enumerate(previous._arrays["state"][row]):
+                if old_names[index] in names:
+                    self._arrays["state"][mine, animal] = names.index(old_names[index])
+                    self._arrays["time_in_state"][mine, animal] = previous._arrays["time_in_state"][row, animal]
+        for row, name in enumerate(old.sensors):
+            if name in new.sensors and previous._arrays["sensor_ready"][row]:
+                self._registers[new.sensors[name][0]] = previous._registers[old.sensors[name][0]]
+                self._arrays["sensor_ready"][list(new.sensors).index(name)] = True
+
+    def force_state(self, machine: str, state: str) -> None:
+        """Put every animal's `machine` in `state`, its time in state back to 0.
+
+        Raises:
+            KeyError: no such machine or state.
+        """
+        names = self.program.machines[machine]
+        if state not in names:
+            raise KeyError(state)
+        row = list(self.program.machines).index(machine)
+        self._arrays["state"][row] = names.index(state)
+        self._arrays["time_in_state"][row] = 0.0
+
+    def state_of(self, machine: str) -> list[str]:
+        """The current state of a machine, per animal."""
+        names = self.program.machines[machine]
+        return [names[i] for i in self._arrays["state"][list(self.program.machines).index(machine)]]
+
+
+def build_runtime(
+    controller: str,
+    model: mujoco.MjModel,
+    placements: Sequence[Placement],
+    parameters: Mapping[str, Any] | None = None,
+    *,
+    scene_parameters: Mapping[str, Any] | None = None,
+) -> ControllerRuntime:
+    """Load a controller by name or path, compile it for the placed animals and bind it to a model.
+
+    Args:
+        controller: a built-in controller name or a YAML path.
+        model: the compiled world.
+        placements: the animals it drives.
+        parameters: parameter overrides (values as written in YAML); a name the controller
+            does not declare is an error.
+        scene_parameters: values a scene offers (its goals); only those the controller
+            declares are used, and `parameters` win over them.
+    """
+    spec = load_controller(controller)
+    offered = {name: value for name, value in (scene_parameters or {}).items() if name in spec.parameters}
+    overrides = offered | dict(parameters or {})
+    if overrides:
+        spec = load_controller(controller, parameters=overrides)
+    scale = scale_for_animals([p.built.animal for p in placements])
+    return ControllerRuntime(compile_controller(spec, scale), model, placements)
