@@ -1,3 +1,5 @@
 """quadpipe: quadrupeds animated by physics alone, baked into clips that load everywhere."""
 
-__version__ = "0.1.0"
+from quadpipe.core.version import __version__
+
+__all__ = ["__version__"]

@@ -24,9 +24,9 @@ from quadpipe.anatomy.rolemap import (
     load_role_map,
     name_side,
     resolve_roles,
-    write_guessed_role_map,
     write_role_map,
 )
+from quadpipe.importers import write_guessed_role_map
 from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble
 
 FIXTURES = Path(__file__).parent / "fixtures" / "skeletons"

@@ -16,7 +16,7 @@ import pytest
 from PIL import Image
 
 from quadpipe import render
-from quadpipe.anatomy.roles import LEGS
+from quadpipe.anatomy.roles import LEGS, TOE_BONES
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.clip.kinematics import rotate
@@ -278,7 +278,7 @@ def test_contact_overlay_marks_toe_tips_of_feet_down_only():
     assert down.any() and (~down).any()
     assert np.isfinite(overlay.starts[down]).all() and np.isnan(overlay.starts[~down]).all()
     frame, leg = np.argwhere(down)[0]
-    toe = track.roles.index(render._toe_bone(LEGS[leg]))
+    toe = track.roles.index(TOE_BONES[LEGS[leg]])
     tip = track.positions[frame, toe] + rotate(track.rotations[frame, toe], track.rest_end[toe] - track.rest_start[toe])
     np.testing.assert_allclose(overlay.starts[frame, leg], tip)
     assert tip[2] < 0.1 * track.pelvis_height

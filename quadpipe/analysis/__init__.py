@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from quadpipe.anatomy import roles
+from quadpipe.anatomy.roles import TOE_BONES
 from quadpipe.clip.model import AnimalTrack, Clip
 from quadpipe.core.errors import QuadpipeError, did_you_mean
 from quadpipe.animals.sizing import GRAVITY, natural_time
@@ -44,8 +45,6 @@ REFERENCE_LEG = "lh"
 HILDEBRAND_ORDER: tuple[str, ...] = ("lh", "lf", "rf", "rh")
 """Leg order of footfall diagrams and reports, top to bottom, as Hildebrand draws them."""
 
-TOE_BONES: dict[str, str] = {leg: f"{leg}_{(roles.FRONT_CHAIN if leg.endswith('f') else roles.HIND_CHAIN)[-1]}" for leg in roles.LEGS}
-"""The last phalanx of each leg, whose far end is the toe tip."""
 
 MIN_RUN_NATURAL_TIMES = 0.1
 """A contact or a gap shorter than this many natural times sqrt(HP / g) is a flicker (26 ms

@@ -575,17 +575,3 @@ def write_role_map(path: str | Path, roles: Mapping[str, str], **options: Any) -
     from quadpipe.core.atomic import write_text
 
     write_text(path, role_map_text(roles, **options))
-
-
-def write_guessed_role_map(skeleton_path: str | Path, out_path: str | Path) -> RoleGuess:
-    """Guess the roles of a skeleton file and write them as a role map (even when incomplete).
-
-    Returns:
-        The guess, so that the caller can report what is missing.
-    """
-    from quadpipe.importers import read_raw_skeleton
-
-    raw = read_raw_skeleton(skeleton_path)
-    guess = guess_roles(raw)
-    write_role_map(out_path, guess.roles, source=raw.source, missing=guess.missing)
-    return guess

@@ -32,6 +32,18 @@ NECK: tuple[str, ...] = ("neck0", "neck1", "neck2", "neck3", "neck4")
 TAIL: tuple[str, ...] = ("tail0", "tail1", "tail2", "tail3")
 
 
+def leg_chain(leg: str) -> tuple[str, ...]:
+    """The bone names (without the leg prefix) of a leg: the fore chain for `lf`/`rf`, else hind."""
+    return FRONT_CHAIN if leg.endswith("f") else HIND_CHAIN
+
+
+TOE_BONES: dict[str, str] = {leg: f"{leg}_{leg_chain(leg)[-1]}" for leg in LEGS}
+"""The last phalanx of each leg, whose far end is the toe tip."""
+
+FOOT_BONES: dict[str, tuple[str, str]] = {leg: (f"{leg}_{leg_chain(leg)[-2]}", f"{leg}_{leg_chain(leg)[-1]}") for leg in LEGS}
+"""The bones whose contact with the world counts as the foot touching down: the last two phalanges."""
+
+
 def _chain(parent: str, names: Iterable[str]) -> dict[str, str]:
     links = {}
     for name in names:

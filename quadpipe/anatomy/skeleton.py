@@ -12,7 +12,7 @@ from typing import Mapping
 
 import numpy as np
 
-from quadpipe.anatomy.roles import CHILDREN, FRONT_CHAIN, HIND_CHAIN, LEAVES, LEGS, MAIN_CHILD, PARENT, ROLES
+from quadpipe.anatomy.roles import CHILDREN, FRONT_CHAIN, HIND_CHAIN, LEAVES, LEGS, MAIN_CHILD, PARENT, ROLES, TOE_BONES
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 
 MIN_BONE_LENGTH_M = 1e-5
@@ -118,15 +118,13 @@ class Skeleton:
     @property
     def ground_height(self) -> float:
         """Height of the lowest foot end in the rest pose, in metres."""
-        return min(float(self.bones[f"{leg}_{toe}"].end[2]) for leg, toe in _TOES)
+        return min(float(self.bones[toe].end[2]) for toe in TOE_BONES.values())
 
     @property
     def pelvis_height(self) -> float:
         """Height of the pelvis joint above the lowest foot, in metres (the thesis's HP)."""
         return float(self.bones["pelvis"].start[2]) - self.ground_height
 
-
-_TOES = (("lf", FRONT_CHAIN[-1]), ("rf", FRONT_CHAIN[-1]), ("lh", HIND_CHAIN[-1]), ("rh", HIND_CHAIN[-1]))
 
 
 def assemble(raw: RawSkeleton, role_of: Mapping[str, str] | None = None) -> Skeleton:

@@ -96,7 +96,7 @@ def parse_yaml(text: str, file: str = "<input>") -> YamlDocument:
     """
     try:
         return _parse(text, file, _LOADER)
-    except yaml.MarkedYAMLError as exc:
+    except yaml.MarkedYAMLError:
         if _LOADER is not yaml.SafeLoader:
             try:
                 _parse(text, file, yaml.SafeLoader)

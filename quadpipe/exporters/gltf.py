@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from quadpipe import __version__
+from quadpipe.core.version import __version__
 from quadpipe.core.atomic import write_bytes
 from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
 from quadpipe.clip.kinematics import continuous, local_poses, normalize, quat_to_y_up, rest_offsets, to_y_up

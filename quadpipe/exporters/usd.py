@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from quadpipe import __version__
+from quadpipe.core.version import __version__
 from quadpipe.core.atomic import atomic_path
 from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
 from quadpipe.clip.kinematics import continuous, local_poses, normalize, rest_offsets

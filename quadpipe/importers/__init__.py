@@ -14,6 +14,7 @@ from typing import Callable
 
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.anatomy.limits import JointLimits
+from quadpipe.anatomy.rolemap import RoleGuess, guess_roles, resolve_roles, write_role_map
 from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble
 
 _MODULES = ("quadpipe_xml", "maya_ascii", "bvh", "limits_table")
@@ -73,8 +74,6 @@ def load_skeleton(path: str | Path, role_map: str | Path | None = None) -> Skele
         QuadpipeError: a bad file or role map, or roles that could not be placed (the
             message says what was guessed).
     """
-    from quadpipe.anatomy.rolemap import resolve_roles
-
     resolution = resolve_roles(read_raw_skeleton(path), role_map)
     skeleton = assemble(resolution.raw, resolution.roles)
     return replace(skeleton, warnings=resolution.warnings + skeleton.warnings)
@@ -84,3 +83,15 @@ def load_limits(path: str | Path) -> JointLimits:
     """Read a joint-limit table (CSV or TSV, thesis columns)."""
     path = Path(path)
     return _reader_for(path, limits_readers(), "limits table")(path)
+
+
+def write_guessed_role_map(skeleton_path: str | Path, out_path: str | Path) -> RoleGuess:
+    """Guess the roles of a skeleton file and write them as a role map (even when incomplete).
+
+    Returns:
+        The guess, so that the caller can report what is missing.
+    """
+    raw = read_raw_skeleton(skeleton_path)
+    guess = guess_roles(raw)
+    write_role_map(out_path, guess.roles, source=raw.source, missing=guess.missing)
+    return guess

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Callable, Iterator, Literal, Sequence
 import numpy as np
 
 from quadpipe.anatomy import roles
+from quadpipe.anatomy.roles import TOE_BONES
 from quadpipe.core.atomic import atomic_path
 from quadpipe.clip.model import Clip, Shape
 from quadpipe.core.errors import QuadpipeError, did_you_mean
@@ -277,7 +278,7 @@ def contact_overlay(clip: Clip) -> Overlay:
     starts = np.full((frames, legs * len(clip.animals), 3), np.nan)
     for index, track in enumerate(clip.animals):
         for leg_index, leg in enumerate(roles.LEGS):
-            bone = track.roles.index(_toe_bone(leg))
+            bone = track.roles.index(TOE_BONES[leg])
             tips = _finite_hold(track.positions[:, bone]) + rotate(
                 _finite_hold(track.rotations[:, bone]), track.rest_end[bone] - track.rest_start[bone]
             )
@@ -320,11 +321,6 @@ def builtin_overlays(clip: Clip, names: Sequence[str] = DEFAULT_OVERLAYS) -> lis
                 "unknown-overlay", f"there is no built-in overlay {name!r}", hint=did_you_mean(name, BUILTIN_OVERLAYS)
             )
     return [BUILTIN_OVERLAYS[name](clip) for name in names]
-
-
-def _toe_bone(leg: str) -> str:
-    """The last phalanx of a leg, whose far end is the toe tip."""
-    return f"{leg}_{(roles.FRONT_CHAIN if leg.endswith('f') else roles.HIND_CHAIN)[-1]}"
 
 
 def _scale(clip: Clip) -> float:

@@ -7,13 +7,9 @@ from typing import Sequence
 import mujoco
 import numpy as np
 
-from quadpipe.anatomy.roles import FRONT_CHAIN, HIND_CHAIN, LEGS, PARENT, ROLES
+from quadpipe.anatomy.roles import FOOT_BONES, LEGS, PARENT, ROLES
 from quadpipe.clip.model import AnimalTrack, Clip, PropTrack, Shape
 from quadpipe.world.placement import Placement
-
-FOOT_BONES = {leg: (f"{leg}_{FRONT_CHAIN[-2]}", f"{leg}_{FRONT_CHAIN[-1]}") if leg.endswith("f")
-              else (f"{leg}_{HIND_CHAIN[-2]}", f"{leg}_{HIND_CHAIN[-1]}") for leg in LEGS}
-"""The bones whose contact with the world counts as the foot touching down: the last two phalanges."""
 
 _SHAPE_KINDS = {
     int(mujoco.mjtGeom.mjGEOM_CAPSULE): "capsule",

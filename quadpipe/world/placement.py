@@ -90,7 +90,7 @@ def lowest_point_offset(animal_spec: mujoco.MjSpec) -> float:
 
 def add_floor(spec: mujoco.MjSpec, scale: float, friction: float = FRICTION[0]) -> None:
     """A checkered `floor` plane sized for animals of pelvis height `scale`."""
-    checker = spec.add_texture(
+    spec.add_texture(
         name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
         rgb1=[0.32, 0.36, 0.40], rgb2=[0.24, 0.27, 0.30], width=300, height=300,
     )
