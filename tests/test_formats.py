@@ -11,6 +11,7 @@ from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.formats import FileFormat, FormatTable
 from quadpipe.exporters import CLIP_FORMATS
 from quadpipe.importers import LIMITS_FORMATS, SKELETON_FORMATS
+from quadpipe.render import RENDER_FORMATS
 
 ABSENT_MODULE = "quadpipe_test_absent_package"
 """A top-level module that no package installs."""
@@ -87,7 +88,7 @@ def test_a_suffix_registered_twice_is_refused():
         FormatTable((FileFormat((".a",), "json", "loads", "one"), FileFormat((".a",), "json", "dumps", "two")))
 
 
-@pytest.mark.parametrize("table", [SKELETON_FORMATS, LIMITS_FORMATS, CLIP_FORMATS])
+@pytest.mark.parametrize("table", [SKELETON_FORMATS, LIMITS_FORMATS, CLIP_FORMATS, RENDER_FORMATS])
 def test_every_registered_format_loads_a_function(table):
     for suffix, fmt in table.items():
         assert suffix == suffix.lower() and suffix.startswith(".")
