@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from quadpipe.analysis import AnimalGait, BAR_COLOUR, DIAGRAM_STRIDES, DIAGRAM_WIDTH_PX, GaitReport, HILDEBRAND_ORDER, PANEL_HEIGHT_PX, ROW_GAP_PX, TOE_BONES, _runs, analyze_clip, classify_gait, clean_contacts, controller_force_key, controller_power_key, debounce, diagram_panels, diagram_size, draw_footfall_diagram, footfall_diagram_png, format_report, min_run_frames, phase_distance, toe_tips
-from quadpipe.anatomy.roles import LEGS, PARENT, ROLES
+from quadpipe.analysis.footfalls import _runs
+from quadpipe.analysis import AnimalGait, BAR_COLOUR, DIAGRAM_STRIDES, DIAGRAM_WIDTH_PX, GaitReport, HILDEBRAND_ORDER, PANEL_HEIGHT_PX, ROW_GAP_PX, analyze_clip, classify_gait, clean_contacts, controller_force_key, controller_power_key, debounce, diagram_panels, diagram_size, draw_footfall_diagram, footfall_diagram_png, format_report, min_run_frames, phase_distance, toe_tips
+from quadpipe.anatomy.roles import LEGS, PARENT, ROLES, TOE_BONES
 from quadpipe.clip.model import AnimalTrack, Clip
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.animals.sizing import GRAVITY, natural_time

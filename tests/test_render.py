@@ -420,7 +420,7 @@ def test_a_missing_opengl_library_is_reported_with_an_install_hint(short_clip, m
     def no_library(name):
         raise OSError(f"cannot load the library behind {name}")
 
-    monkeypatch.setattr(render.importlib, "import_module", no_library)
+    monkeypatch.setattr(render.gl.importlib, "import_module", no_library)
     with pytest.raises(QuadpipeError) as excinfo:
         render.ClipRenderer(short_clip, width=WIDTH, height=HEIGHT)
     assert _code(excinfo) == "no-headless-gl"

@@ -1,10 +1,10 @@
 """Exporters: a baked `Clip` into files that Blender, Maya, usdview, game engines and three.js load.
 
-Each module writes one family of formats and ends with a table registering its writers by file
-suffix (`EXPORTERS = {".glb": export_glb, ...}`), and, if it needs an optional package, a
-`REQUIRES = {import name: pip name}` table; this package merges the tables (as trimesh's
-`exchange` does). A format whose package is missing is listed as unavailable with its install
-hint, and only fails when it is used. To add a format, write a module and add it to `_MODULES`.
+Each module writes one family of formats; `CLIP_FORMATS` registers its writers by file suffix
+(`quadpipe.core.formats`, in the spirit of trimesh's `exchange`), with the pip package a format
+needs when it is optional. Modules are imported only when their format is written, and a format
+whose package is missing is listed as unavailable with its install hint, failing only when it is
+used. To add a format, write a module and add an entry to `CLIP_FORMATS`.
 
 Every write is atomic: a failed export never leaves a partial file behind.
 """
@@ -12,10 +12,7 @@ Every write is atomic: a failed export never leaves a partial file behind.
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
-import inspect
 from dataclasses import dataclass
-from importlib import import_module
 from pathlib import Path
 from typing import Callable
 
@@ -24,8 +21,28 @@ import numpy as np
 from quadpipe.core.atomic import check_writable
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import QuadpipeError
+from quadpipe.core.formats import FileFormat, FormatTable
 
-_MODULES = ("gltf", "usd", "bvh", "npz")
+USD_PACKAGE, USD_MODULE = "usd-core", "pxr"
+"""The optional package the OpenUSD formats need, and the module it installs."""
+
+CLIP_FORMATS = FormatTable((
+    FileFormat((".glb",), f"{__name__}.gltf", "export_glb",
+               "glTF 2.0 binary: skinned meshes, joint hierarchy, animation, props, terrain"),
+    FileFormat((".gltf",), f"{__name__}.gltf", "export_gltf",
+               "glTF 2.0 JSON with its .bin buffer beside it (same content as .glb)"),
+    FileFormat((".usda",), f"{__name__}.usd", "export_usda",
+               "OpenUSD text layer: UsdSkel animals, animated props, terrain", USD_PACKAGE, USD_MODULE),
+    FileFormat((".usdc",), f"{__name__}.usd", "export_usdc",
+               "OpenUSD binary (crate) layer: same content as .usda", USD_PACKAGE, USD_MODULE),
+    FileFormat((".usdz",), f"{__name__}.usd", "export_usdz",
+               "OpenUSD package: the .usdc layer in a zip, for AR Quick Look and sharing", USD_PACKAGE, USD_MODULE),
+    FileFormat((".bvh",), f"{__name__}.bvh", "export_bvh",
+               "BVH motion capture: one animal's skeleton (cm, y up) and joint rotations per frame"),
+    FileFormat((".npz",), f"{__name__}.npz", "export_npz",
+               "Raw clip for analysis: every pose array, loadable with numpy or quadpipe"),
+))
+"""Clip files quadpipe writes: suffix -> format (each writer takes the clip and the path)."""
 
 Exporter = Callable[[Clip, Path], None]
 
@@ -47,24 +64,12 @@ class ExportFormat:
     install_hint: str | None
 
 
-def _module_formats(name: str) -> list[tuple[ExportFormat, Exporter]]:
-    module = import_module(f"{__name__}.{name}")
-    missing = [package for module_name, package in getattr(module, "REQUIRES", {}).items()
-               if importlib.util.find_spec(module_name) is None]
-    hint = f"pip install {' '.join(missing)}" if missing else None
-    return [
-        (ExportFormat(suffix, inspect.getdoc(writer).splitlines()[0].rstrip("."), not missing, hint), writer)
-        for suffix, writer in module.EXPORTERS.items()
-    ]
-
-
-def _registry() -> dict[str, tuple[ExportFormat, Exporter]]:
-    return {fmt.suffix: (fmt, writer) for name in _MODULES for fmt, writer in _module_formats(name)}
-
-
 def supported_formats() -> list[ExportFormat]:
     """Every format quadpipe can write, available or not, sorted by suffix."""
-    return sorted((fmt for fmt, _ in _registry().values()), key=lambda fmt: fmt.suffix)
+    return [
+        ExportFormat(suffix, fmt.description, fmt.available, fmt.install_hint)
+        for suffix, fmt in sorted(CLIP_FORMATS.items())
+    ]
 
 
 def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False) -> Path:
@@ -85,11 +90,11 @@ def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False) ->
             install hint), `bad-clip` (a blown-up or empty clip), `unwritable-output`.
     """
     path = Path(path)
-    fmt, writer = _writer_for(path)
+    writer: Exporter = _format_for(path).load(path)
     clip = _exportable(clip, allow_partial, path)
     if path.is_dir():
         raise QuadpipeError.single(
-            "unwritable-output", f"{str(path)!r} is a folder", file=str(path), hint="give a file name, e.g. clip" + fmt.suffix
+            "unwritable-output", f"{str(path)!r} is a folder", file=str(path), hint="give a file name, e.g. clip" + path.suffix.lower()
         )
     try:
         writer(clip, path)
@@ -109,33 +114,29 @@ def check_output_path(path: str | Path) -> None:
             folder, or a file in a folder that does not exist or is not writable).
     """
     path = Path(path)
-    _writer_for(path)
+    _format_for(path).check_available(path)
     check_writable(path)
 
 
-def _writer_for(path: Path) -> tuple[ExportFormat, Exporter]:
-    registry = _registry()
-    suffix = path.suffix.lower()
-    if suffix not in registry:
+def _format_for(path: Path) -> FileFormat:
+    """The clip format a path's suffix names.
+
+    Raises:
+        QuadpipeError: `unknown-format`, listing the formats (and how to get the unavailable ones).
+    """
+    fmt = CLIP_FORMATS.find(path)
+    if fmt is None:
+        suffix = path.suffix.lower()
         raise QuadpipeError.single(
             "unknown-format",
             f"quadpipe cannot write {suffix or 'files without a suffix'!r} clips ({str(path)!r})",
             file=str(path),
-            hint=_formats_hint(registry),
+            hint=_formats_hint(supported_formats()),
         )
-    fmt, writer = registry[suffix]
-    if not fmt.available:
-        raise QuadpipeError.single(
-            "format-unavailable",
-            f"writing {suffix} needs a package that is not installed",
-            file=str(path),
-            hint=fmt.install_hint,
-        )
-    return fmt, writer
+    return fmt
 
 
-def _formats_hint(registry: dict[str, tuple[ExportFormat, Exporter]]) -> str:
-    formats = sorted((fmt for fmt, _ in registry.values()), key=lambda fmt: fmt.suffix)
+def _formats_hint(formats: list[ExportFormat]) -> str:
     hint = "supported: " + ", ".join(fmt.suffix for fmt in formats if fmt.available)
     unavailable = [fmt for fmt in formats if not fmt.available]
     if unavailable:

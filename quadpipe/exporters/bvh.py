@@ -114,6 +114,3 @@ def motion_rows(track: AnimalTrack) -> np.ndarray:
 def export_bvh(clip: Clip, path: Path) -> None:
     """BVH motion capture: one animal's skeleton (cm, y up) and joint rotations per frame."""
     write_text(path, bvh_text(clip))
-
-
-EXPORTERS = {".bvh": export_bvh}

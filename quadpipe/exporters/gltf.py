@@ -263,6 +263,3 @@ def export_gltf(clip: Clip, path: Path) -> None:
     except BaseException:
         bin_path.unlink(missing_ok=True)
         raise
-
-
-EXPORTERS = {".glb": export_glb, ".gltf": export_gltf}

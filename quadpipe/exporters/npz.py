@@ -147,6 +147,3 @@ def _clip(header: dict[str, Any], archive: Any) -> Clip:
         sensors={name: archive[f"sensor{k}"] for k, name in enumerate(header["sensors"])},
         metadata=header["metadata"],
     )
-
-
-EXPORTERS = {".npz": export_npz}

@@ -35,8 +35,6 @@ from quadpipe.clip.meshes import TriangleMesh, shape_mesh, shapes_mesh
 if TYPE_CHECKING:
     from pxr import Usd, UsdGeom
 
-REQUIRES = {"pxr": "usd-core"}
-
 WORLD = "/World"
 """The default prim."""
 
@@ -227,6 +225,3 @@ def export_usdz(clip: Clip, path: Path) -> None:
         writer.AddFile(str(layer), f"{path.stem}.usdc")
         writer.Save()
         os.replace(package, path)
-
-
-EXPORTERS = {".usda": export_usda, ".usdc": export_usdc, ".usdz": export_usdz}

@@ -1,61 +1,60 @@
 """Importers: skeleton files and joint-limit tables into the format-free core model.
 
-Each module handles one file format and ends with a table registering its readers by file
-suffix (`SKELETON_READERS`, `LIMITS_READERS`); this package merges the tables. To add a
-format, write a module with a reader returning a `RawSkeleton` and add it to `_MODULES`.
+Each module handles one file format; the tables below (`quadpipe.core.formats`) register its
+reader by file suffix, and import the module only when a file of that format is read. To add a
+format, write a module with a reader returning a `RawSkeleton` and add an entry to
+`SKELETON_FORMATS`.
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
-from importlib import import_module
 from pathlib import Path
 from typing import Callable
 
 from quadpipe.core.errors import QuadpipeError
+from quadpipe.core.formats import FileFormat, FormatTable
 from quadpipe.anatomy.limits import JointLimits
 from quadpipe.anatomy.rolemap import RoleGuess, guess_roles, resolve_roles, write_role_map
 from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble
 
-_MODULES = ("quadpipe_xml", "maya_ascii", "bvh", "limits_table")
+SKELETON_FORMATS = FormatTable((
+    FileFormat((".xml",), f"{__name__}.quadpipe_xml", "read_skeleton", "quadpipe skeleton XML (the thesis's exchange format)"),
+    FileFormat((".ma",), f"{__name__}.maya_ascii", "read_skeleton", "Maya ASCII scene: its joints"),
+    FileFormat((".bvh",), f"{__name__}.bvh", "read_skeleton", "BVH motion capture: its joint hierarchy"),
+))
+"""Skeleton files: suffix -> reader returning a `RawSkeleton`."""
+
+LIMITS_FORMATS = FormatTable((
+    FileFormat((".csv", ".tsv"), f"{__name__}.limits_table", "read_limits", "joint-limit table, thesis columns"),
+))
+"""Joint-limit tables: suffix -> reader returning `JointLimits`."""
 
 
-def _registry(table: str) -> dict[str, Callable]:
-    readers: dict[str, Callable] = {}
-    for name in _MODULES:
-        module = import_module(f"{__name__}.{name}")
-        readers.update(getattr(module, table, {}))
-    return readers
+def skeleton_readers() -> FormatTable:
+    """File suffix -> the skeleton format (its reader returns a `RawSkeleton`)."""
+    return SKELETON_FORMATS
 
 
-def skeleton_readers() -> dict[str, Callable[[Path], RawSkeleton]]:
-    """File suffix -> reader returning a `RawSkeleton`."""
-    return _registry("SKELETON_READERS")
-
-
-def limits_readers() -> dict[str, Callable[[Path], JointLimits]]:
-    """File suffix -> reader returning `JointLimits`."""
-    return _registry("LIMITS_READERS")
-
-
-def _reader_for(path: Path, readers: dict[str, Callable], what: str) -> Callable:
-    suffix = path.suffix.lower()
-    if suffix not in readers:
+def _reader_for(path: Path, formats: FormatTable, what: str) -> Callable:
+    fmt = formats.find(path)
+    if fmt is None:
+        suffix = path.suffix.lower()
         raise QuadpipeError.single(
             "unknown-format",
             f"no {what} reader for {suffix or 'files without a suffix'!r}",
             file=str(path),
-            hint=f"supported: {', '.join(sorted(readers))}",
+            hint=f"supported: {', '.join(sorted(formats))}",
         )
     if not path.is_file():
         raise QuadpipeError.single("file-not-found", f"{what} file {str(path)!r} does not exist", file=str(path))
-    return readers[suffix]
+    return fmt.load(path)
 
 
 def read_raw_skeleton(path: str | Path) -> RawSkeleton:
     """Read any supported skeleton file, without assigning roles."""
     path = Path(path)
-    return _reader_for(path, skeleton_readers(), "skeleton")(path)
+    return _reader_for(path, SKELETON_FORMATS, "skeleton")(path)
 
 
 def load_skeleton(path: str | Path, role_map: str | Path | None = None) -> Skeleton:
@@ -82,7 +81,7 @@ def load_skeleton(path: str | Path, role_map: str | Path | None = None) -> Skele
 def load_limits(path: str | Path) -> JointLimits:
     """Read a joint-limit table (CSV or TSV, thesis columns)."""
     path = Path(path)
-    return _reader_for(path, limits_readers(), "limits table")(path)
+    return _reader_for(path, LIMITS_FORMATS, "limits table")(path)
 
 
 def write_guessed_role_map(skeleton_path: str | Path, out_path: str | Path) -> RoleGuess:

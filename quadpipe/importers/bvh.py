@@ -240,6 +240,3 @@ def read_skeleton(path: str | Path) -> RawSkeleton:
         for j in joints
     )
     return RawSkeleton(name=path.name.split(".")[0], source=str(path), joints=records, units="cm", up="y")
-
-
-SKELETON_READERS = {".bvh": read_skeleton}

@@ -90,6 +90,3 @@ def _number(cells: list[str], column: int, name: str, source: str, line: int, bo
 def _column_of(cells: list[str], column: int) -> int:
     """1-based character column where cell `column` starts (one delimiter between cells)."""
     return 1 + sum(len(c) + 1 for c in cells[:column])
-
-
-LIMITS_READERS = {".csv": read_limits, ".tsv": read_limits}

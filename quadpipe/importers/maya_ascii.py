@@ -542,6 +542,3 @@ def read_skeleton(path: str | Path) -> RawSkeleton:
                     "export the scene from Maya as Maya ASCII (.ma); Maya itself refuses files without this header")
     reader.run()
     return reader.skeleton(path.name.split(".")[0])
-
-
-SKELETON_READERS = {".ma": read_skeleton}

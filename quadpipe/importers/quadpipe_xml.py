@@ -105,6 +105,3 @@ def _check_attributes(source: str, tag: str, attrs: dict[str, str], allowed: set
 
 def _fail(source: str, line: int, column: int, code: str, message: str, hint: str | None = None) -> None:
     raise QuadpipeError.single(code, message, file=source, line=line, column=column, hint=hint)
-
-
-SKELETON_READERS = {".xml": read_skeleton}
