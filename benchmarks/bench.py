@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 
     from quadpipe.clip.model import Clip
     from quadpipe.animals.model import BuiltAnimal
-    from quadpipe.world.scene import SceneSetup, SceneSpec
+    from quadpipe.world import SceneSetup, SceneSpec
     from quadpipe.sim.simulation import Run
 
 REPO = Path(__file__).resolve().parent.parent
@@ -267,7 +267,7 @@ class World:
         """Build and compile `scene` with `species` for its animals."""
         import mujoco
 
-        from quadpipe.world.scene import build_scene
+        from quadpipe.world import build_scene
 
         setup = build_scene(scene, species)
         model = setup.spec.compile()
@@ -337,7 +337,7 @@ def bench_controllers(ctx: Context) -> Section:
     """Per animal and shipped controller: microseconds per step with it and bare, overhead, real time."""
     from quadpipe.animals.library import load_animal
     from quadpipe.animals.model import build_animal
-    from quadpipe.world.scene import load_scene
+    from quadpipe.world import load_scene
 
     rows = []
     for animal, controllers in controller_pairs(ctx.plan.all_pairs).items():
@@ -422,7 +422,7 @@ def crowd_world(scene_path: Path) -> World:
     """The compiled crowd of a scene file written by `write_crowd_scene`."""
     from quadpipe.animals.library import load_animal
     from quadpipe.animals.model import build_animal
-    from quadpipe.world.scene import load_scene
+    from quadpipe.world import load_scene
 
     return World.build(load_scene(scene_path), build_animal(load_animal(CROWD_SPECIES)))
 

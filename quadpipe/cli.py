@@ -244,7 +244,7 @@ def schema(kind: Annotated[SchemaKind, typer.Argument(help="Which file format.")
 
         typer.echo(json.dumps(controller_json_schema(), indent=2))
     else:
-        from quadpipe.world.scene import scene_json_schema
+        from quadpipe.world import scene_json_schema
 
         typer.echo(json.dumps(scene_json_schema(), indent=2))
 
@@ -268,7 +268,7 @@ def scenes() -> None:
 
     Example: quadpipe scenes
     """
-    from quadpipe.world.scene import available_scenes, load_scene
+    from quadpipe.world import available_scenes, load_scene
 
     _print_table("Scenes", ["name", "description"], [[name, load_scene(name).description] for name in available_scenes()])
 

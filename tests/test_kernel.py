@@ -21,7 +21,7 @@ from quadpipe.controllers.language.compiler import compile_controller
 from quadpipe.controllers.language.semantics import load_controller
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.controllers.runtime.runtime import ControllerRuntime
-from quadpipe.world.scene import build_scene, load_scene
+from quadpipe.world import build_scene, load_scene
 from quadpipe.sim.simulation import simulate
 from tests.conftest import built_animal
 

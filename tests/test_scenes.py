@@ -11,9 +11,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from quadpipe.world.scene import PARK_DEPTH_HP, SCHEMA_PATH, SceneSetup, ThrowEvent, available_scenes, build_scene, flight_time, ground_height, json_schema_text, load_scene, scene_json_schema, write_schema
+from quadpipe.world import SceneSetup, available_scenes, build_scene, load_scene, scene_json_schema
+from quadpipe.world.placement import ground_height
+from quadpipe.world.schema import SCHEMA_PATH, json_schema_text, write_schema
+from quadpipe.world.throws import PARK_DEPTH_HP, ThrowEvent, flight_time
 from quadpipe.controllers.language import compile_quantity
-from quadpipe.controllers.language.schema import POINT
+from quadpipe.quantities.fields import POINT
 from quadpipe.quantities.units import STANDARD_GRAVITY, Scale
 from quadpipe.core.errors import QuadpipeError
 from tests.conftest import REPO, built_animal
@@ -84,7 +87,7 @@ def test_shipped_scenes_point_editors_at_the_schema_and_match_their_file_name(na
 
 def test_committed_json_schema_is_up_to_date() -> None:
     committed = (REPO / SCHEMA_PATH).read_text(encoding="utf-8")
-    assert committed == json_schema_text(), "run: python -m quadpipe.world.scene"
+    assert committed == json_schema_text(), "run: python -m quadpipe.world.generate"
 
 
 def test_json_schema_accepts_shipped_scenes_and_rejects_unknown_keys() -> None:

@@ -8,6 +8,8 @@ are errors (PyYAML silently keeps the last one).
 from __future__ import annotations
 
 import difflib
+import types
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, TypeVar
@@ -20,6 +22,9 @@ from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 BaseModelT = TypeVar("BaseModelT", bound=pydantic.BaseModel)
 
 PathKey = tuple[Any, ...]
+
+JSON_SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
+"""The JSON Schema version of the schemas generated from the file formats' models."""
 
 _LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 """libyaml's loader when PyYAML was built with it (about 10x faster), else the pure-Python one."""
@@ -144,8 +149,19 @@ def validate_document(model: type[BaseModelT], doc: YamlDocument) -> BaseModelT:
     try:
         return model.model_validate(doc.data)
     except pydantic.ValidationError as exc:
-        errors = without_missing_explained_by_typos(exc.errors())
-        raise QuadpipeError([_issue_from_pydantic(err, model, doc) for err in errors]) from None
+        raise QuadpipeError(located_issues(exc, model, doc)) from None
+
+
+def located_issues(exc: pydantic.ValidationError, model: type[pydantic.BaseModel], doc: YamlDocument, prefix: PathKey = ()) -> list[Issue]:
+    """Pydantic errors of validating `model` as located issues (unknown-key, missing-key, invalid-value).
+
+    Args:
+        exc: the validation error.
+        model: the model that was validated (for the valid key names).
+        doc: the document, to locate the errors.
+        prefix: path in the document of the data that was validated (a part of it).
+    """
+    return [_issue_from_pydantic(err, model, doc, prefix) for err in without_missing_explained_by_typos(exc.errors())]
 
 
 def without_missing_explained_by_typos(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -160,46 +176,62 @@ def without_missing_explained_by_typos(errors: list[dict[str, Any]]) -> list[dic
     return [e for e in errors if not explained(e)]
 
 
-def _fields_at(model: type[pydantic.BaseModel], loc: tuple[Any, ...]) -> list[str]:
-    """Field names of the (nested) model found by following `loc`, for "did you mean" hints."""
-    current: Any = model
-    for part in loc:
-        if isinstance(part, int) or current is None:
-            continue
-        field_info = getattr(current, "model_fields", {}).get(part)
-        if field_info is None:
-            return []
-        annotation = field_info.annotation
-        current = _model_in(annotation)
-    return list(getattr(current, "model_fields", {}) or [])
+def dotted(path: Iterable[Any]) -> str:
+    """A path for messages: `throws.0.speed`."""
+    return ".".join(str(part) for part in path)
 
 
-def _model_in(annotation: Any) -> Any:
-    """The first pydantic model class inside a type annotation (list[X], dict[str, X], X | None)."""
-    if isinstance(annotation, type) and issubclass(annotation, pydantic.BaseModel):
-        return annotation
-    for arg in getattr(annotation, "__args__", ()) or ():
-        found = _model_in(arg)
-        if found is not None:
-            return found
-    return None
-
-
-def _issue_from_pydantic(err: dict[str, Any], model: type[pydantic.BaseModel], doc: YamlDocument) -> Issue:
+def _issue_from_pydantic(err: dict[str, Any], model: type[pydantic.BaseModel], doc: YamlDocument, prefix: PathKey) -> Issue:
     loc = tuple(err["loc"])
+    path = prefix + loc
     kind = err["type"]
     if kind == "extra_forbidden":
         name = str(loc[-1])
-        valid = _fields_at(model, loc[:-1])
+        valid = field_names_at(model, loc[:-1])
         return Issue(
             "unknown-key",
             f"{name!r} is not a valid key here",
-            doc.locate(loc, key=True),
+            doc.locate(path, key=True),
             did_you_mean(name, valid) if valid else None,
         )
     if kind == "missing":
-        where = ".".join(str(p) for p in loc[:-1]) or "the top level"
-        return Issue("missing-key", f"required key {loc[-1]!r} is missing in {where}", doc.locate(loc[:-1]))
-    dotted = ".".join(str(p) for p in loc)
+        where = dotted(path[:-1]) or "the top level"
+        return Issue("missing-key", f"required key {loc[-1]!r} is missing in {where}", doc.locate(path[:-1]))
     message = err["msg"].removeprefix("Value error, ")
-    return Issue("invalid-value", f"{dotted}: {message}" if dotted else message, doc.locate(loc))
+    return Issue("invalid-value", f"{dotted(path)}: {message}" if path else message, doc.locate(path))
+
+
+# --------------------------------------------------------------------------- field names
+
+
+def unwrap_annotation(annotation: Any) -> list[Any]:
+    """The concrete types inside Annotated / Optional / Union annotations."""
+    if hasattr(annotation, "__metadata__"):
+        return unwrap_annotation(typing.get_args(annotation)[0])
+    if typing.get_origin(annotation) in (typing.Union, types.UnionType):
+        return [t for arm in typing.get_args(annotation) for t in unwrap_annotation(arm)]
+    return [annotation]
+
+
+def _step(annotation: Any, part: Any) -> Any:
+    for candidate in unwrap_annotation(annotation):
+        if isinstance(candidate, type) and issubclass(candidate, pydantic.BaseModel):
+            for name, info in candidate.model_fields.items():
+                if part in (name, info.alias):
+                    return info.annotation
+        elif typing.get_origin(candidate) in (list, dict):
+            return typing.get_args(candidate)[-1]
+    return None
+
+
+def field_names_at(model: type[pydantic.BaseModel], loc: tuple[Any, ...]) -> list[str]:
+    """Key names valid in the mapping at `loc` inside `model`, for "did you mean" hints."""
+    annotation: Any = model
+    for part in loc:
+        annotation = _step(annotation, part)
+        if annotation is None:
+            return []
+    for candidate in unwrap_annotation(annotation):
+        if isinstance(candidate, type) and issubclass(candidate, pydantic.BaseModel):
+            return [info.alias or name for name, info in candidate.model_fields.items()]
+    return []

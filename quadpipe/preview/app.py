@@ -37,11 +37,12 @@ from quadpipe.anatomy import roles
 from quadpipe.clip.model import Clip, Shape
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.sim.recording import geom_shape
-from quadpipe.world.scene import PARK_DEPTH_HP, THROWN_RGBA, vector_text
+from quadpipe.world.goals import vector_text
+from quadpipe.world.throws import PARK_DEPTH_HP, THROWN_RGBA
 
 if TYPE_CHECKING:
     from quadpipe.controllers.runtime.runtime import ControllerRuntime
-    from quadpipe.world.scene import SceneSetup, SceneSpec
+    from quadpipe.world import SceneSetup, SceneSpec
     from quadpipe.sim.simulation import Run
 
 # --------------------------------------------------------------------------- constants
@@ -513,7 +514,7 @@ class LivePreview(_Preview):
     def __init__(self, animal: str, controller: str, scene: str | None = None, parameters: Mapping[str, str] | None = None, pool_size: int = POOL_SIZE):
         from quadpipe.animals.library import load_animal
         from quadpipe.animals.model import build_animal
-        from quadpipe.world.scene import SCENE_KIND
+        from quadpipe.world import SCENE_KIND
         from quadpipe.sim.simulation import DEFAULT_SCENE
 
         self.controller = controller
@@ -537,12 +538,12 @@ class LivePreview(_Preview):
     # -------------------------------------------------------------- building
 
     def _load_scene(self) -> "SceneSpec":
-        from quadpipe.world.scene import load_scene
+        from quadpipe.world import load_scene
 
         return load_scene(self.scene_path)
 
     def _build_world(self, scene: "SceneSpec") -> _World:
-        from quadpipe.world.scene import build_scene
+        from quadpipe.world import build_scene
 
         setup = build_scene(scene, self.built)
         first = setup.placements[0].built.animal

@@ -207,7 +207,7 @@ def simulate(
     from quadpipe.animals.library import load_animal
     from quadpipe.animals.model import build_animal
     from quadpipe.controllers.runtime.runtime import build_runtime
-    from quadpipe.world.scene import build_scene, load_scene
+    from quadpipe.world import build_scene, load_scene
 
     built = build_animal(load_animal(animal))
     scene_spec = load_scene(scene or DEFAULT_SCENE)

@@ -1,8 +1,10 @@
 """The world around the animals: floor, light, and the animals placed in it.
 
 Animal models (`quadpipe.animals.model`) carry no floor or light, as in mujoco_menagerie: a world
-attaches one or more of them, each under a name prefix (`dog/lf_elbow`), lifted so that its
-lowest point just touches the ground.
+attaches one or more of them, each under a name prefix (`dog/lf_elbow`), turned to its heading
+and lifted so that its lowest point just touches whatever lies under it (the floor, a scene's
+terrain, or z = 0 when there is nothing). `build_world` makes such a world for animals alone;
+scenes (`quadpipe.world.build`) add terrain before the animals, and props after them.
 """
 
 from __future__ import annotations
@@ -24,6 +26,9 @@ FLOOR_HALF_SIZE_HP = 200.0
 
 DROP_CLEARANCE_HP = 0.002
 """Gap left under an animal's lowest point when it is placed, in pelvis heights."""
+
+RAY_HEIGHT_HP = 1000.0
+"""Height from which the ground under an animal is found by casting rays down, in HP."""
 
 
 @dataclass(frozen=True)
@@ -52,40 +57,94 @@ def yaw_quat(heading: float) -> list[float]:
     return [float(np.cos(heading / 2)), 0.0, 0.0, float(np.sin(heading / 2))]
 
 
+def euler_quat(euler: np.ndarray) -> np.ndarray:
+    """The quaternion of MuJoCo's default `xyz` Euler sequence (about x, then the new y, then the new z)."""
+    quat = np.zeros(4)
+    mujoco.mju_euler2Quat(quat, np.asarray(euler, dtype=float), "xyz")
+    return quat
+
+
 def build_world(placements: Sequence[Placement], *, floor: bool = True) -> mujoco.MjSpec:
     """A world spec with a floor and a sun, and each animal attached at its placement.
 
     The time step is the smallest any animal needs (see `quadpipe.animals.sizing`).
     """
-    spec = mujoco.MjSpec()
-    spec.modelname = "+".join(p.name for p in placements) or "world"
-    spec.compiler.degree = False
-    spec.option.timestep = min((p.built.timestep for p in placements), default=sizing.FRAME_STEP_S)
-    spec.option.iterations = sizing.SOLVER_ITERATIONS
-    largest = max((p.built.animal.pelvis_height for p in placements), default=1.0)
-    add_sky_and_light(spec, largest)
-    if floor:
-        add_floor(spec, largest)
-    for placement in placements:
-        lift = lowest_point_offset(placement.built.spec) + DROP_CLEARANCE_HP * placement.built.animal.pelvis_height
-        frame = spec.worldbody.add_frame(pos=[placement.xy[0], placement.xy[1], lift], quat=yaw_quat(placement.heading))
-        animal_spec = placement.built.spec.copy()
-        animal_spec.option.timestep = spec.option.timestep
-        spec.attach(animal_spec, prefix=f"{placement.name}/", frame=frame)
+    name = "+".join(p.name for p in placements) or "world"
+    spec = world_spec(name, [p.built for p in placements], FRICTION[0] if floor else None)
+    attach_animals(spec, placements, FRICTION[0])
     return spec
 
 
-def lowest_point_offset(animal_spec: mujoco.MjSpec) -> float:
-    """How far to lift an animal spec so that its lowest geom touches z = 0."""
+def world_spec(name: str, animals: Sequence[BuiltAnimal], floor_friction: float | None = FRICTION[0]) -> mujoco.MjSpec:
+    """An empty world for these animals: their smallest time step, a sky and a sun, and a
+    floor of sliding friction `floor_friction` (None: no floor)."""
+    spec = mujoco.MjSpec()
+    spec.modelname = name
+    spec.compiler.degree = False
+    spec.option.timestep = min((built.timestep for built in animals), default=sizing.FRAME_STEP_S)
+    spec.option.iterations = sizing.SOLVER_ITERATIONS
+    largest = max((built.animal.pelvis_height for built in animals), default=1.0)
+    add_sky_and_light(spec, largest)
+    if floor_friction is not None:
+        add_floor(spec, largest, floor_friction)
+    return spec
+
+
+def attach_animals(spec: mujoco.MjSpec, placements: Sequence[Placement], friction: float) -> None:
+    """Attach every animal, turned to its heading and lifted onto whatever lies under it.
+
+    The ground is found on the world compiled before any animal is attached (compiling the
+    spec itself: `MjSpec.copy()` of a spec whose material skips a texture role crashes
+    MuJoCo 3.17). Every geom of the animals gets the sliding friction `friction` (MuJoCo lets
+    the bones decide their contacts).
+    """
+    ground_model = spec.compile()
+    ground_data = mujoco.MjData(ground_model)
+    mujoco.mj_kinematics(ground_model, ground_data)
+    bottoms: dict[int, np.ndarray] = {}
+    for placement in placements:
+        if id(placement.built) not in bottoms:
+            bottoms[id(placement.built)] = geom_bottoms(placement.built.spec)
+        lift = start_height(placement, bottoms[id(placement.built)], ground_model, ground_data)
+        animal_spec = placement.built.spec.copy()
+        animal_spec.option.timestep = spec.option.timestep
+        for geom in animal_spec.geoms:
+            geom.friction = [friction, *geom.friction[1:]]
+        frame = spec.worldbody.add_frame(pos=[*placement.xy, lift], quat=yaw_quat(placement.heading))
+        spec.attach(animal_spec, prefix=f"{placement.name}/", frame=frame)
+
+
+def geom_bottoms(animal_spec: mujoco.MjSpec) -> np.ndarray:
+    """The lowest point of each geom of an animal in its rest pose, in its own frame, (k, 3)."""
     model = animal_spec.copy().compile()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    lowest = np.inf
-    for geom in range(model.ngeom):
-        centre = data.geom_xpos[geom] + data.geom_xmat[geom].reshape(3, 3) @ model.geom_aabb[geom, :3]
-        reach = np.abs(data.geom_xmat[geom].reshape(3, 3)[2]) @ model.geom_aabb[geom, 3:]
-        lowest = min(lowest, centre[2] - reach)
-    return -float(lowest)
+    rotations = data.geom_xmat.reshape(-1, 3, 3)
+    centres = data.geom_xpos + np.einsum("kij,kj->ki", rotations, model.geom_aabb[:, :3])
+    reach = np.einsum("kj,kj->k", np.abs(rotations[:, 2, :]), model.geom_aabb[:, 3:])
+    return centres - np.outer(reach, [0.0, 0.0, 1.0])
+
+
+def start_height(placement: Placement, bottoms: np.ndarray, ground_model: mujoco.MjModel, ground_data: mujoco.MjData) -> float:
+    """How high to attach an animal so that its lowest part rests on the ground or terrain below
+    (on z = 0 where there is nothing below)."""
+    hp = placement.built.animal.pelvis_height
+    points = bottoms @ placement.yaw().T + np.array([*placement.xy, 0.0])
+    top = RAY_HEIGHT_HP * hp
+    lifts = [
+        ground - point[2]
+        for point in points
+        if (ground := ground_height(ground_model, ground_data, point[0], point[1], top)) is not None
+    ]
+    lift = max(lifts) if lifts else -float(points[:, 2].min())
+    return lift + DROP_CLEARANCE_HP * hp
+
+
+def ground_height(model: mujoco.MjModel, data: mujoco.MjData, x: float, y: float, top: float) -> float | None:
+    """Height of the highest static surface under (x, y) below `top`, or None if there is none."""
+    geom = np.zeros(1, dtype=np.int32)
+    distance = mujoco.mj_ray(model, data, np.array([x, y, top]), np.array([0.0, 0.0, -1.0]), None, 1, -1, geom)
+    return None if distance < 0 else top - distance
 
 
 def add_floor(spec: mujoco.MjSpec, scale: float, friction: float = FRICTION[0]) -> None:

@@ -14,8 +14,6 @@ Problems are collected as `Issue`s rather than raised, so that one run reports t
 from __future__ import annotations
 
 import re
-import types
-import typing
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
@@ -27,7 +25,8 @@ from quadpipe.core import configs
 from quadpipe.anatomy import roles
 from quadpipe.controllers.language.schema import LEG_PLACEHOLDER, MODEL_OF_TYPE, SCHEMA_VERSION, ControllerFile
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
-from quadpipe.core.yamlio import YamlDocument, load_yaml
+from quadpipe.core.yamlio import YamlDocument, field_names_at, load_yaml
+from quadpipe.core.yamlio import unwrap_annotation as unwrap_annotation  # re-exported
 
 BUILTIN_GROUPS: dict[str, tuple[str, ...]] = {
     "all_legs": ("lf", "rf", "lh", "rh"),
@@ -180,39 +179,6 @@ class MergedController:
 
 
 # --------------------------------------------------------------------------- pydantic errors
-
-
-def unwrap_annotation(annotation: Any) -> list[Any]:
-    """The concrete types inside Annotated / Optional / Union annotations."""
-    if hasattr(annotation, "__metadata__"):
-        return unwrap_annotation(typing.get_args(annotation)[0])
-    if typing.get_origin(annotation) in (typing.Union, types.UnionType):
-        return [t for arm in typing.get_args(annotation) for t in unwrap_annotation(arm)]
-    return [annotation]
-
-
-def _step(annotation: Any, part: Any) -> Any:
-    for candidate in unwrap_annotation(annotation):
-        if isinstance(candidate, type) and issubclass(candidate, pydantic.BaseModel):
-            for name, info in candidate.model_fields.items():
-                if part in (name, info.alias):
-                    return info.annotation
-        elif typing.get_origin(candidate) in (list, dict):
-            return typing.get_args(candidate)[-1]
-    return None
-
-
-def field_names_at(model: type[pydantic.BaseModel], loc: tuple[Any, ...]) -> list[str]:
-    """Key names valid in the mapping at `loc` inside `model`, for "did you mean" hints."""
-    annotation: Any = model
-    for part in loc:
-        annotation = _step(annotation, part)
-        if annotation is None:
-            return []
-    for candidate in unwrap_annotation(annotation):
-        if isinstance(candidate, type) and issubclass(candidate, pydantic.BaseModel):
-            return [info.alias or name for name, info in candidate.model_fields.items()]
-    return []
 
 
 def pydantic_issues(

@@ -24,6 +24,7 @@ from quadpipe.quantities.units import UNITS, dimension_name
 from quadpipe.controllers.language.loader import BUILTIN_GROUPS, unwrap_annotation
 from quadpipe.controllers.language.semantics import SENSOR_TYPES, field_markers
 from quadpipe.controllers.language.validate import ISSUE_CODES
+from quadpipe.core.yamlio import JSON_SCHEMA_DIALECT
 
 SCHEMA_PATH = Path("schemas") / "controller.schema.json"
 """Where the JSON Schema is committed, relative to the repository root."""
@@ -33,8 +34,6 @@ DOCS_PATH = Path("docs") / "controllers.md"
 
 BEGIN_MARKER = "<!-- BEGIN GENERATED REFERENCE (python -m quadpipe.controllers.language.generate) -->"
 END_MARKER = "<!-- END GENERATED REFERENCE -->"
-
-JSON_SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
 
 PARTS: tuple[type[pydantic.BaseModel], ...] = (Direction, Strength, Elastic, Parameter, State, Transition)
 """Nested mappings documented after the elements."""

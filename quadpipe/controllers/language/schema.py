@@ -18,6 +18,9 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, PlainValidat
 from quadpipe.anatomy.roles import LEGS, ROLES
 from quadpipe.quantities import units
 from quadpipe.quantities.expressions import BOOL, LEG_LANDMARKS, POINT_ANCHORS, SCALAR, VECTOR, Expect
+from quadpipe.quantities.fields import ANGLE, LENGTH, POINT, TIME, AnyValue, Value, quantity
+from quadpipe.quantities.fields import Quantity as Quantity  # re-exported: the language code reads the marker here
+from quadpipe.quantities.fields import VECTOR_INPUT as _VECTOR_INPUT, described as _doc, kind_of as _kind_of
 
 SCHEMA_VERSION = 1
 """The only `schema:` version this quadpipe reads."""
@@ -29,10 +32,7 @@ FRAMES: tuple[str, ...] = ("heading", "world")
 """Frames a constant vector may be given in, besides a role's own frame."""
 
 # Expected kinds and dimensions of the quantity fields.
-TIME = Expect(SCALAR, (units.TIME,), "time", "38/30 s")
-ANGLE = Expect(SCALAR, (units.ANGLE,), "angle", "20 deg")
 FORCE = Expect(SCALAR, (units.FORCE,), "force", "0.3 bw")
-LENGTH = Expect(SCALAR, (units.LENGTH,), "length", "0.9 HP")
 NUMBER = Expect(SCALAR, (units.NONE,), "number", "1.3")
 STIFFNESS = Expect(SCALAR, (units.STIFFNESS,), "stiffness (force/length)", "20 bw/HP")
 DAMPING = Expect(SCALAR, (units.DAMPING,), "damping (force x time/length)", "0.5 bw*s/HP")
@@ -40,18 +40,10 @@ ANGULAR_STIFFNESS = Expect(SCALAR, (units.ANGULAR_STIFFNESS,), "angular stiffnes
 ANGULAR_DAMPING = Expect(SCALAR, (units.ANGULAR_DAMPING,), "angular damping (torque x time/angle)", "0.01 bw*HP*s/rad")
 LENGTH2_FACTOR = Expect(SCALAR, (units.LENGTH2_FACTOR,), "force per squared length", "0.5 bw/HP^2")
 DIRECTION = Expect(VECTOR, None, "vector", "[0, 0, -1]")
-POINT = Expect(VECTOR, (units.LENGTH,), "point (vector of lengths)", "[5 HP, 0, 0]")
 CONDITION = Expect(BOOL, None, "condition", "angle(a, b) > 20 deg")
 
 
 # --------------------------------------------------------------------------- markers
-
-
-@dataclass(frozen=True)
-class Quantity:
-    """Marks a field holding a value or expression of the `expect`ed kind and dimension."""
-
-    expect: Expect
 
 
 @dataclass(frozen=True)
@@ -89,20 +81,6 @@ class ElementNames:
 # --------------------------------------------------------------------------- value types
 
 
-def _plain_value(value: Any) -> Any:
-    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise ValueError(f"expected a number or an expression, got {_kind_of(value)}")
-    return value
-
-
-def _quantity_value(value: Any) -> Any:
-    if isinstance(value, list):
-        if len(value) != 3:
-            raise ValueError(f"a vector has 3 components [x, y, z], got {len(value)}")
-        return [_plain_value(item) for item in value]
-    return _plain_value(value)
-
-
 def _string(value: Any) -> str:
     if not isinstance(value, str):
         raise ValueError(f"expected a name, got {_kind_of(value)}")
@@ -116,14 +94,6 @@ def _string_list(value: Any) -> list[str]:
     return list(items)
 
 
-def _kind_of(value: Any) -> str:
-    if value is None:
-        return "nothing"
-    return {bool: "true/false", dict: "a mapping", list: "a list", str: "text"}.get(type(value), "a number")
-
-
-_VECTOR_INPUT = Annotated[list[Union[float, str]], Field(min_length=3, max_length=3)]
-
 _POINT_NAMES: list[str] = [
     *ROLES,
     *(f"{role}.{anchor}" for role in ROLES for anchor in POINT_ANCHORS),
@@ -136,28 +106,8 @@ _POINT_JSON = {
     ]
 }
 
-Value = Annotated[Any, PlainValidator(_plain_value, json_schema_input_type=Union[float, str])]
-"""A number or an expression text."""
-
-
-def quantity(expect: Expect) -> Any:
-    """The type of a field holding a quantity of the `expect`ed kind."""
-    input_type = Union[float, str, _VECTOR_INPUT] if expect.kind == VECTOR else Union[float, str]
-    return Annotated[Any, PlainValidator(_quantity_value, json_schema_input_type=input_type), Quantity(expect)]
-
-
-AnyValue = Annotated[Any, PlainValidator(_quantity_value, json_schema_input_type=Union[float, str, _VECTOR_INPUT])]
-"""A number, an expression text or a vector of them, of any kind (parameter values)."""
-
 PointName = Annotated[str, PlainValidator(_string), WithJsonSchema(_POINT_JSON), BodyPoint()]
 Names = Annotated[list[str], BeforeValidator(_string_list, json_schema_input_type=Union[str, list[str]])]
-
-
-def _doc(text: str, expect: Expect | None = None) -> str:
-    """A field description, with the expected unit and an example for quantities."""
-    if expect is None:
-        return text
-    return f"{text} Expects {expect.describe()}, e.g. `{expect.example}`."
 
 
 class _Model(BaseModel):

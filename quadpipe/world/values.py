@@ -1,0 +1,70 @@
+"""A scene's quantities evaluated for the size of its first animal (`3 HP` -> metres)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from quadpipe.core.errors import Issue, QuadpipeError
+from quadpipe.quantities import units
+from quadpipe.quantities.expressions import VECTOR, Expect, compile_quantity
+from quadpipe.quantities.fields import Bounds
+from quadpipe.world.format import is_zero, iter_quantities
+from quadpipe.world.loading import SceneSpec, file_order, shown
+
+
+class Values:
+    """A scene's quantities in SI, evaluated for its first animal, looked up by file path.
+
+    Paths are those of `iter_quantities` (`("terrain", 0, "angle")`, list items by index).
+
+    Attributes:
+        scene: the scene, to locate errors.
+        hp: the first animal's pelvis height, metres.
+
+    Raises (on creation):
+        QuadpipeError: a value out of its bounds (a negative size, a 70 degree ramp).
+    """
+
+    def __init__(self, scene: SceneSpec, scale: units.Scale):
+        self.scene = scene
+        self.hp = float(scale.hp[0])
+        self._values: dict[tuple[Any, ...], Any] = {}
+        issues = []
+        for path, value, expect, bounds in iter_quantities(scene.file):
+            resolved = _evaluate(value, expect, scale)
+            self._values[path] = resolved
+            problem = _out_of_bounds(resolved, bounds)
+            if problem:
+                issues.append(Issue("out-of-range", f"{shown(path, scene.doc)}: {value!r} {problem}", scene.locate(path)))
+        if issues:
+            raise QuadpipeError(sorted(issues, key=file_order))
+
+    def __getitem__(self, path: tuple[Any, ...]) -> Any:
+        return self._values[path]
+
+    def get(self, path: tuple[Any, ...], default: Any = None) -> Any:
+        """The value at `path`, or `default` when the file leaves it out."""
+        return self._values.get(path, default)
+
+    def items(self, path: tuple[Any, ...], count: int) -> np.ndarray:
+        """The `count` scalar items of a list quantity, as an array."""
+        return np.array([self._values[path + (i,)] for i in range(count)])
+
+
+def _evaluate(value: Any, expect: Expect, scale: units.Scale) -> Any:
+    if is_zero(value):
+        return np.zeros(3) if expect.kind == VECTOR else 0.0
+    result = compile_quantity(value, scale, expect).constant[0]
+    return np.array(result, dtype=float) if expect.kind == VECTOR else float(result)
+
+
+def _out_of_bounds(value: Any, bounds: Bounds | None) -> str | None:
+    if bounds is None:
+        return None
+    if value < 0 or (bounds.positive and value == 0):
+        return "must be more than 0" if bounds.positive else "cannot be negative"
+    if bounds.high is not None and value > bounds.high:
+        return f"must be at most {bounds.high_text}"
+    return None
