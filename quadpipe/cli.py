@@ -416,11 +416,11 @@ def preview(
 
     check_display()
     if clip is not None:
-        from quadpipe.preview.app import load_replay
+        from quadpipe.preview import load_replay
 
         model, title = load_replay(clip), f"quadpipe preview: {clip}"
     else:
-        from quadpipe.preview.app import LivePreview
+        from quadpipe.preview import LivePreview
 
         model = LivePreview(animal, controller, scene, _parameters(parameters))
         title = f"quadpipe preview: {animal} / {controller} / {scene}"
