@@ -36,12 +36,11 @@ from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 if TYPE_CHECKING:
     import mujoco
-    import numpy as np
 
     from quadpipe.clip.model import Clip
     from quadpipe.animals.model import BuiltAnimal
-    from quadpipe.world import SceneSetup, SceneSpec
-    from quadpipe.sim.simulation import Run
+    from quadpipe.world import SceneSpec
+    from quadpipe.sim.simulation import Simulation
 
 REPO = Path(__file__).resolve().parent.parent
 """The repository root (commands run there, relative paths resolve there)."""
@@ -252,47 +251,45 @@ def error_text(exc: BaseException) -> str:
 class World:
     """A compiled scene that can be stepped again and again from the same start.
 
-    A controller runtime adds its damping to the model's `dof_damping` each step, and takes
-    the model's values as its base when built; the world keeps the compiled values and puts
-    them back before every run, so every run, controlled or bare, starts from the same model.
+    Its `Simulation` releases a controller's runtime before the next run (the runtime writes
+    its damping into the model), so every run, controlled or bare, starts from the same model.
     """
 
-    setup: "SceneSetup"
-    model: "mujoco.MjModel"
-    data: "mujoco.MjData"
-    base_damping: "np.ndarray"
+    sim: "Simulation"
 
     @classmethod
     def build(cls, scene: "SceneSpec", species: "BuiltAnimal") -> "World":
         """Build and compile `scene` with `species` for its animals."""
-        import mujoco
-
+        from quadpipe.sim.simulation import Simulation
         from quadpipe.world import build_scene
 
-        setup = build_scene(scene, species)
-        model = setup.spec.compile()
-        return cls(setup, model, mujoco.MjData(model), model.dof_damping.copy())
+        return cls(Simulation(build_scene(scene, species)))
+
+    @property
+    def model(self) -> "mujoco.MjModel":
+        """The compiled world."""
+        return self.sim.model
+
+    @property
+    def data(self) -> "mujoco.MjData":
+        """Its state."""
+        return self.sim.data
 
     def steps(self, seconds: float) -> int:
         """Physics steps in `seconds` of simulated time."""
         return max(1, round(seconds / self.model.opt.timestep))
 
     def reset(self) -> None:
-        """Back to the start: compiled damping, initial state, kinematics computed."""
-        import mujoco
+        """Back to the start with no controller: compiled damping, initial state, kinematics computed."""
+        self.sim.use_controller(None)
+        self.sim.reset()
 
-        self.model.dof_damping[:] = self.base_damping
-        mujoco.mj_resetData(self.model, self.data)
-        mujoco.mj_forward(self.model, self.data)
-
-    def controlled_run(self, controller: str) -> "Run":
-        """A run from the start under a freshly built runtime of `controller` (as `simulate` builds it)."""
-        from quadpipe.controllers.runtime.runtime import build_runtime
-        from quadpipe.sim.simulation import Run
-
+    def controlled_run(self, controller: str) -> "Simulation":
+        """The simulation from the start under a freshly built runtime of `controller` (as `simulate` builds it)."""
         self.reset()
-        runtime = build_runtime(controller, self.model, self.setup.placements, scene_parameters=self.setup.goal_parameters)
-        return Run(self.model, self.data, self.setup.placements, [runtime], events=self.setup.events(self.model))
+        compiled, _ = self.sim.compile_controller(controller)
+        self.sim.use_controller(compiled)
+        return self.sim
 
     def step_bare(self, steps: int) -> None:
         """`steps` bare MuJoCo steps, in one call (no Python between steps)."""
@@ -305,11 +302,11 @@ class World:
         import mujoco
 
         from quadpipe.sim import health as physics
-        from quadpipe.sim.simulation import FALL_HEIGHT_HP
+        from quadpipe.sim.metrics import FALL_HEIGHT_HP
 
         if not physics.is_finite(self.data) or self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
             return "blew-up"
-        placements = self.setup.placements
+        placements = self.sim.placements
         fallen = sum(
             self.data.xpos[self.model.body(f"{p.name}/pelvis").id][2] < FALL_HEIGHT_HP * p.built.animal.pelvis_height
             for p in placements
@@ -319,8 +316,8 @@ class World:
         return "fell" if len(placements) == 1 else f"{fallen}/{len(placements)} fell"
 
 
-def step_run(run: "Run", steps: int) -> None:
-    """`steps` steps of a run, exactly as the simulation loop takes them."""
+def step_run(run: "Simulation", steps: int) -> None:
+    """`steps` steps of a simulation, exactly as the simulation loop takes them."""
     for _ in range(steps):
         run.step()
 
@@ -560,7 +557,7 @@ def two_threads(worlds: Sequence[World], steps: int) -> tuple[float, str]:
     return wall, worst_status([world.status() for world in worlds])
 
 
-def _step_after(barrier: threading.Barrier, run: "Run", steps: int) -> None:
+def _step_after(barrier: threading.Barrier, run: "Simulation", steps: int) -> None:
     barrier.wait()
     step_run(run, steps)
 

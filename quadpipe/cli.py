@@ -337,9 +337,9 @@ def _run_and_write(
     gait_report: Path | None,
     diagram: Path | None,
 ) -> None:
-    from quadpipe.core.atomic import check_writable, write_text
-    from quadpipe.exporters import check_output_path, export_clip
-    from quadpipe.sim.simulation import simulate as run_simulation
+    from quadpipe.batch.bake import METRICS_SUFFIX, bake
+    from quadpipe.core.atomic import check_writable
+    from quadpipe.exporters import check_output_path
 
     for output in outputs:
         check_output_path(output)
@@ -350,11 +350,11 @@ def _run_and_write(
         from quadpipe.analysis import check_diagram_path
 
         check_diagram_path(diagram)
-    result = run_simulation(animal, controller, seconds=seconds, scene=scene, parameters=_parameters(parameters), fps=fps)
-    for output in outputs:
-        export_clip(result.clip, output)
-    metrics_path = metrics or outputs[0].with_suffix(".metrics.json")
-    write_text(metrics_path, json.dumps(result.metrics, indent=2) + "\n")
+    metrics_path = metrics or outputs[0].with_suffix(METRICS_SUFFIX)
+    result = bake(
+        animal, controller, seconds=seconds, outputs=outputs, metrics_path=metrics_path, scene=scene,
+        parameters=_parameters(parameters), fps=fps,
+    )
     typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
     for name, figures in result.metrics["animals"].items():
         typer.echo(
@@ -416,11 +416,11 @@ def preview(
 
     check_display()
     if clip is not None:
-        from quadpipe.preview.app import load_replay
+        from quadpipe.preview import load_replay
 
         model, title = load_replay(clip), f"quadpipe preview: {clip}"
     else:
-        from quadpipe.preview.app import LivePreview
+        from quadpipe.preview import LivePreview
 
         model = LivePreview(animal, controller, scene, _parameters(parameters))
         title = f"quadpipe preview: {animal} / {controller} / {scene}"

@@ -306,7 +306,7 @@ def test_dask_alone_and_local_runs_write_the_same_bytes(tmp_path):
 
 def test_an_unreachable_scheduler_is_an_input_error(tmp_path, monkeypatch):
     pytest.importorskip("distributed")
-    monkeypatch.setattr("quadpipe.batch.CONNECT_TIMEOUT_S", 1.0)
+    monkeypatch.setattr("quadpipe.batch.scheduling.CONNECT_TIMEOUT_S", 1.0)
     plan = BatchPlan(animals=["dog"], controllers=["rigid"], output=str(tmp_path))
     with pytest.raises(QuadpipeError) as caught:
         run_batch(plan, scheduler="tcp://127.0.0.1:9", progress=False)

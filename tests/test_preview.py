@@ -16,9 +16,13 @@ import pytest
 from quadpipe.animals import sizing
 from quadpipe.clip.model import Shape
 from quadpipe.core.errors import QuadpipeError
-from quadpipe.preview import app
+from quadpipe.preview.clock import MAX_CATCH_UP_S, SLOW_MOTION_RATE
+from quadpipe.preview.overlays import BALANCE_RGBA, CONTACT_NORMAL_HP, FORCE_ARROW_HP_PER_BW, FORCE_RGBA, GOAL_RGBA, LIVE_OVERLAYS, SEGMENT_RGBA
+from quadpipe.preview.replay import REPLAY_OVERLAYS
+from quadpipe.preview.scenery import Pose, layer
+from quadpipe.preview.throws import MAX_THROW_DISTANCE_HP, POOL_PREFIX, THROW_FROUDE, THROW_TARGET_POINTS
 from quadpipe.preview.window import ARROW_HEAD_ANGLE_DEG, ARROW_HEAD_MAX_HP, CAMERA_START, CHECKER_RGBA, FLOOR_DRAWN_HP, FollowCamera, KEY_BINDINGS, WINDOW_ACTIONS, bound_actions, checker_plane, help_text, overlay_lines, pose_matrices
-from quadpipe.preview.app import Clock, LivePreview, load_replay
+from quadpipe.preview import Clock, LivePreview, load_replay
 from tests.conftest import FIXTURES, REPO
 
 FRAME = 1.0 / sizing.FRAME_RATE
@@ -85,7 +89,7 @@ def test_clock_follows_wall_time_and_caps_catch_up():
     clock = Clock(tick_s=1 / 120, step_ticks=4)
     assert clock.advance(FRAME) == 4
     assert sum(clock.advance(1 / 240) for _ in range(10)) == 5  # fractions of a tick add up
-    assert clock.advance(0.5) == round(app.MAX_CATCH_UP_S * 120)  # a slow frame is not made up in full
+    assert clock.advance(0.5) == round(MAX_CATCH_UP_S * 120)  # a slow frame is not made up in full
     assert clock.advance(FRAME) == 4  # and the debt was dropped, not carried
 
 
@@ -99,7 +103,7 @@ def test_clock_pause_step_and_slow_motion():
     assert clock.advance(1.0) == 0
     clock.toggle_pause()
     clock.toggle_slow_motion()
-    assert clock.advance(0.1) == round(0.1 * app.SLOW_MOTION_RATE * 120)
+    assert clock.advance(0.1) == round(0.1 * SLOW_MOTION_RATE * 120)
     running = Clock(tick_s=1 / 120, step_ticks=4)
     running.step()  # a step pauses a running clock
     assert running.paused and running.advance(1.0) == 4
@@ -118,7 +122,7 @@ def test_live_pause_step_reset_and_slow_motion():
     preview.perform("pause")
     preview.perform("slow_motion")
     preview.advance(0.1)
-    assert preview.time == pytest.approx(0.5 + FRAME + 0.1 * app.SLOW_MOTION_RATE)
+    assert preview.time == pytest.approx(0.5 + FRAME + 0.1 * SLOW_MOTION_RATE)
     moved = preview.data.qpos.copy()
     preview.perform("reset")
     assert preview.time == 0.0
@@ -211,13 +215,13 @@ def test_a_throw_launches_a_pooled_body_at_the_animal():
     hidden = preview.pose().visible.copy()
     body = preview.throw("ball", eye)
     model, data = preview.model, preview.data
-    assert model.body(body).name.startswith(app.POOL_PREFIX + "ball")
+    assert model.body(body).name.startswith(POOL_PREFIX + "ball")
     row = list(preview._body_ids).index(body)
     assert not hidden[row] and preview.pose().visible[row]
     dof = model.jnt_dofadr[model.body_jntadr[body]]
     velocity = data.qvel[dof : dof + 3].copy()
     assert data.xpos[body] == pytest.approx(eye)
-    speed = math.sqrt(app.THROW_FROUDE * sizing.GRAVITY * hp)
+    speed = math.sqrt(THROW_FROUDE * sizing.GRAVITY * hp)
     flight = np.linalg.norm(target - eye) / speed
     expected = (target - eye) / flight + np.array([0.0, 0.0, sizing.GRAVITY * flight / 2])
     assert velocity == pytest.approx(expected, abs=0.05 * speed)  # the standing dog barely drifts
@@ -237,8 +241,8 @@ def test_a_far_camera_throws_from_the_limit_distance_and_pool_bodies_are_reused(
     hp = preview.world.hp
     far = _xpos(preview, "dog/pelvis") + np.array([0.0, -30 * hp, 0.0])
     first = preview.throw("box", far)
-    target = np.mean([preview.runtime.point(preview.data, p)[0] for p in app.THROW_TARGET_POINTS], axis=0)
-    assert np.linalg.norm(preview.data.xpos[first] - target) == pytest.approx(app.MAX_THROW_DISTANCE_HP * hp)
+    target = np.mean([preview.runtime.point(preview.data, p)[0] for p in THROW_TARGET_POINTS], axis=0)
+    assert np.linalg.norm(preview.data.xpos[first] - target) == pytest.approx(MAX_THROW_DISTANCE_HP * hp)
     assert preview.data.xpos[first][1] < target[1]  # on the camera's side
     second, third = preview.throw("box", far), preview.throw("box", far)
     assert second != first and third == first
@@ -286,11 +290,11 @@ def test_overlays_sit_on_the_body_points_with_their_colours():
     _run(preview, 0.3)
     hp, weight = preview.world.hp, _weight(preview)
     layers = {layer.name: layer for layer in preview.overlays()}
-    assert list(layers) == list(app.LIVE_OVERLAYS)
+    assert list(layers) == list(LIVE_OVERLAYS)
 
     segments = layers["segments"]
     assert len(segments.starts) == 7 and segments.kind == "line"  # tail, spine, neck, four legs
-    assert np.all(segments.colors == app.SEGMENT_RGBA)
+    assert np.all(segments.colors == SEGMENT_RGBA)
     pelvis, thorax = _xpos(preview, "dog/pelvis"), _xpos(preview, "dog/thorax")
     spine = np.flatnonzero(np.all(np.isclose(segments.starts, pelvis), axis=1))
     assert len(spine) == 1 and segments.ends[spine[0]] == pytest.approx(thorax)
@@ -298,19 +302,19 @@ def test_overlays_sit_on_the_body_points_with_their_colours():
     balance = layers["balance"]
     tops = [_xpos(preview, f"dog/{bone}") for bone in ("lf_scapula", "rf_scapula", "lh_hip", "rh_hip")]
     assert balance.starts == pytest.approx(np.array(tops))
-    assert np.all(balance.colors == app.BALANCE_RGBA)
+    assert np.all(balance.colors == BALANCE_RGBA)
     assert balance.ends - balance.starts == pytest.approx(np.tile([0.0, 0.0, -hp], (4, 1)), abs=0.1 * hp)  # a still dog: straight down
 
     forces, last = layers["forces"], preview.runtime.last
     assert len(forces.starts) == len(last.forces) > 0
     assert np.linalg.norm(forces.ends - forces.starts, axis=1) == pytest.approx(
-        np.linalg.norm(last.forces, axis=1) / weight * app.FORCE_ARROW_HP_PER_BW * hp
+        np.linalg.norm(last.forces, axis=1) / weight * FORCE_ARROW_HP_PER_BW * hp
     )
-    assert np.all(forces.colors == app.FORCE_RGBA["segment"])
+    assert np.all(forces.colors == FORCE_RGBA["segment"])
 
     contacts = layers["contacts"]
     assert len(contacts.starts) == preview.data.ncon > 0
-    assert np.linalg.norm(contacts.ends - contacts.starts, axis=1) == pytest.approx(app.CONTACT_NORMAL_HP * hp)
+    assert np.linalg.norm(contacts.ends - contacts.starts, axis=1) == pytest.approx(CONTACT_NORMAL_HP * hp)
     assert np.all(contacts.ends[:, 2] > contacts.starts[:, 2])  # floor normals point up
     assert len(layers["goal"].starts) == 0  # rigid has no goal
 
@@ -377,7 +381,7 @@ def test_every_key_is_an_open3d_key_bound_to_an_existing_action(baked_clip):
     for key, action in KEY_BINDINGS.items():
         assert hasattr(gui.KeyName, key), key
         assert action in known, action
-    for name in app.LIVE_OVERLAYS + app.REPLAY_OVERLAYS:
+    for name in LIVE_OVERLAYS + REPLAY_OVERLAYS:
         assert f"toggle_{name}" in KEY_BINDINGS.values()
     assert "throw_ball" in bound_actions(live).values()
     assert "throw_ball" not in bound_actions(replay).values()
@@ -396,7 +400,7 @@ def test_checker_floor_tiles_alternate_and_stop_at_the_drawn_size():
 
 
 def test_arrows_points_and_poses_as_geometry():
-    arrow = app.layer("forces", "arrow", [[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], (1.0, 0.0, 0.0, 1.0))
+    arrow = layer("forces", "arrow", [[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], (1.0, 0.0, 0.0, 1.0))
     points, segments, colors = overlay_lines(arrow, hp=1.0)
     assert len(segments) == 5 and colors.shape == (5, 3) and np.all(colors == [1.0, 0.0, 0.0])
     assert points[segments[0]].ravel() == pytest.approx([0, 0, 0, 1, 0, 0])
@@ -405,11 +409,11 @@ def test_arrows_points_and_poses_as_geometry():
         assert points[a] == pytest.approx([1.0, 0.0, 0.0])
         assert np.linalg.norm(points[b] - points[a]) == pytest.approx(head)
         assert points[b][0] == pytest.approx(1.0 - head * math.cos(math.radians(ARROW_HEAD_ANGLE_DEG)))
-    cross = app.layer("goal", "point", [[1.0, 2.0, 3.0]], None, app.GOAL_RGBA)
+    cross = layer("goal", "point", [[1.0, 2.0, 3.0]], None, GOAL_RGBA)
     points, segments, _ = overlay_lines(cross, hp=1.0)
     assert len(segments) == 3
     assert points[segments].mean(axis=1).ravel() == pytest.approx([1.0, 2.0, 3.0] * 3)
-    turn = app.Pose(np.array([[1.0, 2.0, 3.0]]), np.array([[math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)]]), np.array([True]))
+    turn = Pose(np.array([[1.0, 2.0, 3.0]]), np.array([[math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)]]), np.array([True]))
     matrix = pose_matrices(turn)[0]
     assert matrix[:3, 3] == pytest.approx([1.0, 2.0, 3.0])
     assert matrix[:3, :3] @ [1.0, 0.0, 0.0] == pytest.approx([0.0, 1.0, 0.0])
@@ -427,7 +431,8 @@ WINDOW_CHECK = """
 import json, os, sys, traceback
 import numpy as np
 from open3d.visualization import gui
-from quadpipe.preview.app import LivePreview, THROW_TARGET_POINTS
+from quadpipe.preview import LivePreview
+from quadpipe.preview.throws import THROW_TARGET_POINTS
 from quadpipe.preview.window import ARROW_HEAD_ANGLE_DEG, ARROW_HEAD_MAX_HP, BODY_PREFIX, CAMERA_START, CHECKER_RGBA, FLOOR_DRAWN_HP, FollowCamera, KEY_BINDINGS, OVERLAY_PREFIX, PreviewWindow, STATIC_NAME, WINDOW_ACTIONS, bound_actions, checker_plane, help_text, overlay_lines, pose_matrices
 
 
@@ -494,6 +499,6 @@ def test_the_window_draws_the_preview_and_maps_keys_to_actions():
     assert result["pelvis_transform_error"] < 1e-5
     assert {"balance", "forces", "segments"} <= set(result["overlays"]) and "goal" not in result["overlays"]  # rigid has no goal
     assert result["ball_toward_eye"] == pytest.approx(1.0, abs=1e-6)  # thrown from the camera's direction
-    assert result["ball_distance_hp"] <= app.MAX_THROW_DISTANCE_HP + 1e-6
+    assert result["ball_distance_hp"] <= MAX_THROW_DISTANCE_HP + 1e-6
     assert result["ball_visible"] and result["forces_after_toggle"] is False
     assert result["free_camera"] and result["paused"]

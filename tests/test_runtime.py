@@ -102,3 +102,31 @@ def test_the_clip_carries_sensors_and_the_metrics_the_injected_force():
     assert walking.metrics["animals"]["dog"]["net_force_max_bw"] < 1e-9  # couples only
     assert pulled.metrics["animals"]["dog"]["net_force_max_bw"] == pytest.approx(2.0, rel=0.01)  # the 2 bw pull
     assert walking.metrics["animals"]["dog"]["work_j"] > 0
+
+
+def test_a_released_runtime_gives_the_model_its_compiled_damping_back():
+    from quadpipe.sim.simulation import Simulation
+
+    simulation = Simulation.build("dog", "walk")
+    compiled = simulation.model.dof_damping.copy()
+    for _ in range(20):
+        simulation.step()
+    assert np.abs(simulation.model.dof_damping - compiled).max() > 0  # the springs' damping is in the model
+    simulation.runtime.release()
+    assert np.array_equal(simulation.model.dof_damping, compiled)
+
+
+def test_a_reset_or_a_new_controller_starts_from_the_compiled_model():
+    from quadpipe.sim.simulation import Simulation
+
+    simulation = Simulation.build("dog", "walk")
+    first = simulation.record(0.5).animals[0].positions
+    simulation.reset()
+    assert simulation.time == 0.0
+    again = simulation.record(0.5).animals[0].positions
+    compiled, _ = simulation.compile_controller("walk")
+    simulation.reset()
+    simulation.use_controller(compiled)
+    swapped = simulation.record(0.5).animals[0].positions
+    assert np.array_equal(first, again) and np.array_equal(first, swapped)
+    assert np.array_equal(first, simulate("dog", "walk", seconds=0.5).clip.animals[0].positions)

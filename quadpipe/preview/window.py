@@ -1,7 +1,7 @@
 """The preview window: open3d's GUI drawing a preview app model, keys bound to its actions.
 
 A `gui.SceneWidget` shows the scenery of a `LivePreview` or `ReplayPreview`
-(`quadpipe.preview.app`): every body as one mesh (capsules, boxes and spheres tessellated by
+(`quadpipe.preview.live`, `.replay`): every body as one mesh (capsules, boxes and spheres tessellated by
 `quadpipe.clip.meshes`) moved each frame by its pose, the floor as a checkerboard, the
 terrain, a sun casting shadows, a sky-blue background, and the overlays as coloured lines.
 The camera follows the first animal (C switches to a free camera; the mouse orbits either
@@ -27,12 +27,13 @@ from quadpipe.clip.model import Shape
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.clip.kinematics import to_matrix
 from quadpipe.clip.meshes import TriangleMesh, merge, shape_mesh
-from quadpipe.preview.app import OverlayLayer, Pose, Scenery
+from quadpipe.preview.scenery import OverlayLayer, Pose, Scenery
 
 if TYPE_CHECKING:
     import open3d
 
-    from quadpipe.preview.app import LivePreview, ReplayPreview
+    from quadpipe.preview.live import LivePreview
+    from quadpipe.preview.replay import ReplayPreview
 
     Preview = LivePreview | ReplayPreview
 

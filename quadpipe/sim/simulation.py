@@ -1,4 +1,8 @@
-"""The simulation loop: fixed steps, controllers, frames recorded into a clip, blow-ups caught.
+"""The simulation: a world built for animals, a controller and a scene, stepped and recorded.
+
+`Simulation` owns everything one run needs (the compiled model, its state, the placed
+animals, the controller runtime, the scene's events) and is the one place that puts them
+together: `simulate()` (the CLI, batches), the live preview and the benchmarks all use it.
 
 The thesis steps physics at 1/120 s, 4 steps per displayed frame at 30 fps. Animals that need
 smaller steps (see `quadpipe.animals.sizing`) split each of those steps into substeps; the controller
@@ -8,8 +12,8 @@ warning or body flung far away stops the run with a message naming the frame and
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Callable, Protocol, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Callable, Mapping, Protocol, Sequence
 
 import mujoco
 import numpy as np
@@ -18,8 +22,14 @@ from quadpipe.sim import health as physics
 from quadpipe.animals import sizing
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import QuadpipeError
+from quadpipe.sim.metrics import clip_metrics
 from quadpipe.sim.recording import Recorder
 from quadpipe.world.placement import Placement
+
+if TYPE_CHECKING:
+    from quadpipe.controllers.language.compiler import CompiledController
+    from quadpipe.controllers.runtime.runtime import ControllerRuntime
+    from quadpipe.world import SceneSetup
 
 FPS_TOLERANCE = 1e-9
 """Relative difference below which a frame rate divides the physics rate."""
@@ -49,37 +59,6 @@ class SimulationBlowUp(QuadpipeError):
     """The simulation diverged (NaN, bad acceleration, a body flung away)."""
 
 
-@dataclass
-class Run:
-    """A prepared world, ready to step.
-
-    Attributes:
-        model: the compiled world.
-        data: its state.
-        placements: the animals in it.
-        controllers: run before every physics step, in order.
-        events: callables run before every physics step with (model, data) — scene events
-            such as throws.
-    """
-
-    model: mujoco.MjModel
-    data: mujoco.MjData
-    placements: Sequence[Placement]
-    controllers: list[Controller] = field(default_factory=list)
-    events: list[Callable[[mujoco.MjModel, mujoco.MjData], None]] = field(default_factory=list)
-
-    def step(self) -> None:
-        """One physics step: events, then `mj_step1`, controllers on the current state, `mj_step2`."""
-        for event in self.events:
-            event(self.model, self.data)
-        mujoco.mj_step1(self.model, self.data)
-        self.data.xfrc_applied[:] = 0.0
-        self.data.qfrc_applied[:] = 0.0
-        for controller in self.controllers:
-            controller.apply(self.model, self.data)
-        mujoco.mj_step2(self.model, self.data)
-
-
 def frame_steps(timestep: float, fps: float) -> int:
     """Physics steps per recorded frame: the physics rate divided by `fps`.
 
@@ -98,77 +77,213 @@ def frame_steps(timestep: float, fps: float) -> int:
     )
 
 
-def run_frames(
-    run: Run,
-    seconds: float,
-    metadata: dict[str, str] | None = None,
-    on_frame: Callable[[float], None] | None = None,
-    fps: float = sizing.FRAME_RATE,
-) -> Clip:
-    """Simulate `seconds` and record one frame every 1/fps s (the first frame is the start).
-
-    Args:
-        run: the prepared world.
-        seconds: simulated time.
-        metadata: kept in the clip.
-        on_frame: called with the simulated time after every frame (progress, interruption).
-        fps: recorded frames per second; must divide the physics rate (see `frame_steps`).
-
-    Raises:
-        SimulationBlowUp: on a NaN, a bad-acceleration warning or a body flung far away.
-        QuadpipeError: `fps` does not divide the physics rate.
-    """
-    steps = frame_steps(run.model.opt.timestep, fps)
-    recorder = Recorder(run.model, run.placements, fps)
-    frames = round(seconds * fps)
-    far = FAR_AWAY_HP * max(p.built.animal.pelvis_height for p in run.placements)
-    mujoco.mj_forward(run.model, run.data)
-    recorder.capture(run.data, frame_values(run))
-    for frame in range(1, frames + 1):
-        for _ in range(steps):
-            run.step()
-        check_health(run, frame, far, fps)
-        recorder.capture(run.data, frame_values(run))
-        if on_frame is not None:
-            on_frame(run.data.time)
-    return recorder.clip({"status": "ok", **(metadata or {})})
-
-
-def frame_values(run: Run) -> dict[str, np.ndarray]:
-    """The per-frame values the controllers offer (sensors, injected force and power)."""
-    values: dict[str, np.ndarray] = {}
-    for controller in run.controllers:
-        offer = getattr(controller, "frame_values", None)
-        if offer is not None:
-            values.update(offer(run.data))
-    return values
-
-
-def check_health(run: Run, frame: int, far: float, fps: float = sizing.FRAME_RATE) -> None:
-    """Raise `SimulationBlowUp` if the state is not finite, MuJoCo warned, or a body flew away."""
-    data = run.data
-    problem = None
-    if not physics.is_finite(data):
-        problem = "positions or velocities became NaN or infinite"
-    elif data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
-        problem = "MuJoCo reported a bad acceleration (the state diverged)"
-    elif np.abs(data.xpos).max() > far:
-        problem = "a body was flung more than 1000 pelvis heights away"
-    if problem is None:
-        return
-    names = ", ".join(c.name for c in run.controllers) or "no controller"
-    raise SimulationBlowUp.single(
-        "simulation-blew-up",
-        f"the simulation blew up at frame {frame} (t = {frame / fps:.2f} s) under {names}: {problem}",
-        hint="forces are too strong for this animal or step: lower the controller's strengths, or check the scene",
-    )
-
-
 DEFAULT_SCENE = "flat"
 """The scene used when none is named: flat ground, a goal ahead."""
 
-FALL_HEIGHT_HP = 0.4
-"""An animal whose pelvis drops below this many pelvis heights has fallen."""
+
+class Simulation:
+    """A compiled world with its animals, their controller and the scene's events, ready to step.
+
+    The one place where a run's pieces are put together and owned: `simulate` (the CLI,
+    batches), the live preview and the benchmarks all step a `Simulation`.
+
+    The controller runtime writes its springs' damping into `model.dof_damping` (see
+    `quadpipe.controllers.runtime.runtime`); `use_controller` and `reset` release the runtime
+    they replace before binding the next one, so every runtime starts from the compiled model.
+
+    Args:
+        setup: the scene built for its animals; its `spec` is compiled here.
+        extra_controllers: more `Controller`s run after the runtime (tests push with these).
+        metadata: kept in every recorded clip.
+
+    Attributes:
+        setup: the scene built for its animals.
+        model: the compiled world.
+        data: its state.
+        runtime: the controller runtime driving the animals (None: passive ragdolls).
+        events: the scene's events (props set moving, throws), run before every physics step.
+        controllers: run before every physics step, in order: the runtime, then the extra ones.
+        far_m: a body farther than this from the origin has been flung away (a blow-up).
+    """
+
+    def __init__(self, setup: "SceneSetup", extra_controllers: Sequence[Controller] = (), metadata: dict[str, str] | None = None):
+        self.setup = setup
+        self.model = setup.spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.metadata = dict(metadata or {})
+        self.extra_controllers = list(extra_controllers)
+        self.runtime: ControllerRuntime | None = None
+        self.controllers: list[Controller] = list(self.extra_controllers)
+        self.events = setup.events(self.model)
+        self.far_m = FAR_AWAY_HP * max(p.built.animal.pelvis_height for p in setup.placements)
+
+    @classmethod
+    def build(
+        cls,
+        animal: str,
+        controller: str | None,
+        *,
+        scene: str | None = None,
+        parameters: Mapping[str, str] | None = None,
+        extra_controllers: Sequence[Controller] = (),
+    ) -> "Simulation":
+        """An animal (and the scene's other animals) under a controller, in a scene, at t = 0.
+
+        Args:
+            animal: animal name or config path.
+            controller: controller name or path (None: a passive ragdoll).
+            scene: scene name or path (None: `flat`).
+            parameters: controller parameter overrides (YAML values: "2 HP", "[1, 0, 0]").
+            extra_controllers: more `Controller`s run after the main one.
+
+        Raises:
+            QuadpipeError: the animal, scene or controller cannot be loaded, or do not fit.
+        """
+        from quadpipe.animals.library import load_animal
+        from quadpipe.animals.model import build_animal
+        from quadpipe.world import build_scene, load_scene
+
+        built = build_animal(load_animal(animal))
+        scene_spec = load_scene(scene or DEFAULT_SCENE)
+        metadata = {"controller": controller or "none", "scene": scene_spec.name, "animal": built.animal.name}
+        simulation = cls(build_scene(scene_spec, built), extra_controllers, metadata)
+        if controller:
+            compiled, _ = simulation.compile_controller(controller, parameters)
+            simulation.use_controller(compiled)
+        return simulation
+
+    @property
+    def placements(self) -> Sequence[Placement]:
+        """The animals, in scene order."""
+        return self.setup.placements
+
+    @property
+    def time(self) -> float:
+        """Simulated time, seconds."""
+        return float(self.data.time)
+
+    # ------------------------------------------------------------------ the controller
+
+    def compile_controller(
+        self, controller: str, parameters: Mapping[str, str] | None = None, goals: Mapping[str, str] | None = None
+    ) -> tuple["CompiledController", tuple[str, ...]]:
+        """A controller compiled for this world's animals, and the files it was read from.
+
+        The controller is offered the scene's goals, and `goals` over them (it takes those it
+        declares); `parameters` win over both.
+
+        Raises:
+            QuadpipeError: the files do not validate, or a parameter does not fit them.
+        """
+        from quadpipe.controllers.runtime.runtime import compile_for
+
+        offered = self.setup.goal_parameters | dict(goals or {})
+        return compile_for(controller, self.placements, parameters, scene_parameters=offered)
+
+    def use_controller(self, compiled: "CompiledController | None", *, carry_over: bool = False) -> "ControllerRuntime | None":
+        """Drive the animals with a fresh runtime of `compiled` (None: none), replacing the current one.
+
+        The replaced runtime is released first (the model's damping back to the compiled values).
+
+        Args:
+            carry_over: the new runtime takes over the replaced one's running state (cycle
+                phases, machine states, smoothed sensors: see `ControllerRuntime.adopt`) and its
+                last forces, as a hot reload wants.
+
+        Returns:
+            the new runtime.
+        """
+        from quadpipe.controllers.runtime.runtime import ControllerRuntime
+
+        previous = self.runtime
+        if previous is not None:
+            previous.release()
+        runtime = None if compiled is None else ControllerRuntime(compiled, self.model, self.placements)
+        if carry_over and runtime is not None and previous is not None:
+            runtime.adopt(previous)
+            runtime.last = previous.last  # the forces acting until the next step, for overlays
+        self.runtime = runtime
+        self.controllers = ([runtime] if runtime is not None else []) + self.extra_controllers
+        return runtime
+
+    def reset(self) -> None:
+        """Back to t = 0: the initial state, the scene's events bound again, a fresh runtime of
+        the current controller (compiled damping), kinematics computed."""
+        compiled = None if self.runtime is None else self.runtime.compiled
+        mujoco.mj_resetData(self.model, self.data)
+        self.events = self.setup.events(self.model)
+        self.use_controller(compiled)
+        mujoco.mj_forward(self.model, self.data)
+
+    # ------------------------------------------------------------------ stepping
+
+    def step(self) -> None:
+        """One physics step: events, then `mj_step1`, controllers on the current state, `mj_step2`."""
+        for event in self.events:
+            event(self.model, self.data)
+        mujoco.mj_step1(self.model, self.data)
+        self.data.xfrc_applied[:] = 0.0
+        self.data.qfrc_applied[:] = 0.0
+        for controller in self.controllers:
+            controller.apply(self.model, self.data)
+        mujoco.mj_step2(self.model, self.data)
+
+    def record(self, seconds: float, *, on_frame: Callable[[float], None] | None = None, fps: float = sizing.FRAME_RATE) -> Clip:
+        """Simulate `seconds` and record one frame every 1/fps s (the first frame is the start).
+
+        Args:
+            seconds: simulated time.
+            on_frame: called with the simulated time after every frame (progress, interruption).
+            fps: recorded frames per second; must divide the physics rate (see `frame_steps`).
+
+        Returns:
+            the clip, its metadata `status: ok` and this simulation's `metadata`.
+
+        Raises:
+            SimulationBlowUp: on a NaN, a bad-acceleration warning or a body flung far away.
+            QuadpipeError: `fps` does not divide the physics rate.
+        """
+        steps = frame_steps(self.model.opt.timestep, fps)
+        recorder = Recorder(self.model, self.placements, fps)
+        frames = round(seconds * fps)
+        mujoco.mj_forward(self.model, self.data)
+        recorder.capture(self.data, self.frame_values())
+        for frame in range(1, frames + 1):
+            for _ in range(steps):
+                self.step()
+            self.check_health(frame, fps)
+            recorder.capture(self.data, self.frame_values())
+            if on_frame is not None:
+                on_frame(self.data.time)
+        return recorder.clip({"status": "ok", **self.metadata})
+
+    def frame_values(self) -> dict[str, np.ndarray]:
+        """The per-frame values the controllers offer (sensors, injected force and power)."""
+        values: dict[str, np.ndarray] = {}
+        for controller in self.controllers:
+            offer = getattr(controller, "frame_values", None)
+            if offer is not None:
+                values.update(offer(self.data))
+        return values
+
+    def check_health(self, frame: int, fps: float = sizing.FRAME_RATE) -> None:
+        """Raise `SimulationBlowUp` if the state is not finite, MuJoCo warned, or a body flew away."""
+        data = self.data
+        problem = None
+        if not physics.is_finite(data):
+            problem = "positions or velocities became NaN or infinite"
+        elif data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
+            problem = "MuJoCo reported a bad acceleration (the state diverged)"
+        elif np.abs(data.xpos).max() > self.far_m:
+            problem = "a body was flung more than 1000 pelvis heights away"
+        if problem is None:
+            return
+        names = ", ".join(c.name for c in self.controllers) or "no controller"
+        raise SimulationBlowUp.single(
+            "simulation-blew-up",
+            f"the simulation blew up at frame {frame} (t = {frame / fps:.2f} s) under {names}: {problem}",
+            hint="forces are too strong for this animal or step: lower the controller's strengths, or check the scene",
+        )
 
 
 @dataclass
@@ -177,7 +292,7 @@ class Result:
 
     clip: Clip
     metrics: dict
-    runtime: object | None
+    runtime: "ControllerRuntime | None"
 
 
 def simulate(
@@ -204,61 +319,6 @@ def simulate(
         fps: recorded frames per second (30, the thesis's; a rat's walk needs more to be
             analysed: its stride lasts 0.17 s).
     """
-    from quadpipe.animals.library import load_animal
-    from quadpipe.animals.model import build_animal
-    from quadpipe.controllers.runtime.runtime import build_runtime
-    from quadpipe.world import build_scene, load_scene
-
-    built = build_animal(load_animal(animal))
-    scene_spec = load_scene(scene or DEFAULT_SCENE)
-    setup = build_scene(scene_spec, built)
-    model = setup.spec.compile()
-    data = mujoco.MjData(model)
-    runtime = (
-        build_runtime(controller, model, setup.placements, parameters, scene_parameters=setup.goal_parameters)
-        if controller
-        else None
-    )
-    controllers = ([runtime] if runtime else []) + list(extra_controllers)
-    run = Run(model, data, setup.placements, controllers, events=setup.events(model))
-    metadata = {"controller": controller or "none", "scene": scene_spec.name, "animal": built.animal.name}
-    clip = run_frames(run, seconds, metadata, on_frame, fps)
-    return Result(clip, clip_metrics(clip), runtime)
-
-
-def _injected(clip: Clip, track) -> dict:
-    """Net external force and work the controller injected (couples cancel; pulls do not)."""
-    force = clip.sensors.get(f"controller_force:{track.name}")
-    power = clip.sensors.get(f"controller_power:{track.name}")
-    if force is None or power is None:
-        return {}
-    weight = track.mass_kg * sizing.GRAVITY
-    return {
-        "net_force_mean_bw": float(np.linalg.norm(force, axis=1).mean() / weight),
-        "net_force_max_bw": float(np.linalg.norm(force, axis=1).max() / weight),
-        "work_j": float(power[1:].sum() / clip.fps),
-        "work_j_per_kg_m": float(power[1:].sum() / clip.fps / track.mass_kg / max(np.linalg.norm(track.positions[-1, 0, :2] - track.positions[0, 0, :2]), 1e-9)),
-    }
-
-
-def clip_metrics(clip: Clip) -> dict:
-    """Per-animal figures of a clip: distance, speed, pelvis heights, falls (lengths also in HP)."""
-    animals = {}
-    for track in clip.animals:
-        hp = track.pelvis_height
-        pelvis = track.positions[:, 0]
-        travel = pelvis[-1, :2] - pelvis[0, :2]
-        heights = pelvis[:, 2]
-        fallen = heights < FALL_HEIGHT_HP * hp
-        animals[track.name] = {
-            "distance_m": float(np.linalg.norm(travel)),
-            "distance_hp": float(np.linalg.norm(travel) / hp),
-            "forward_hp": float(travel[0] / hp),
-            "speed_m_s": float(np.linalg.norm(travel) / max(clip.duration, 1e-9)),
-            "pelvis_height_min_hp": float(heights.min() / hp),
-            "pelvis_height_max_hp": float(heights.max() / hp),
-            "fell": bool(fallen.any()),
-            "first_fall_s": float(np.argmax(fallen) / clip.fps) if fallen.any() else None,
-            **_injected(clip, track),
-        }
-    return {"duration_s": clip.duration, "frames": clip.frame_count, "animals": animals}
+    simulation = Simulation.build(animal, controller, scene=scene, parameters=parameters, extra_controllers=extra_controllers)
+    clip = simulation.record(seconds, on_frame=on_frame, fps=fps)
+    return Result(clip, clip_metrics(clip), simulation.runtime)

@@ -52,7 +52,7 @@ class SceneSetup:
     def events(self, model: mujoco.MjModel) -> list[Callable[[mujoco.MjModel, mujoco.MjData], None]]:
         """The scene's events for a model compiled from `spec`: props set moving, then the throws.
 
-        Each is called before every physics step (see `quadpipe.sim.simulation.Run`). Thrown objects
+        Each is called before every physics step (see `quadpipe.sim.simulation.Simulation.step`). Thrown objects
         are parked (collisions off, held against gravity) until their time; binding resets
         that, so a model can be reused.
         """

@@ -8,7 +8,10 @@ body's centre of mass) for segments, pairs, pulls and cycles, and as joint torqu
 `data.qfrc_applied` for the stiffness of angular springs. Their damping goes into the
 model's `dof_damping`, which MuJoCo's Euler integrator applies implicitly: explicit damping
 torques are unstable on small bones (a rat's toes), implicit damping never is. The runtime
-therefore owns its model's `dof_damping` (base values restored and added to each step).
+therefore owns its model's `dof_damping` while it runs: it keeps the values it found when it
+was built as its base, writes base + its damping at each step, and `release()` puts the base
+back. That is the only change a runtime makes to its model; release one before building
+another on the same model (`quadpipe.sim.simulation.Simulation` does, in one place).
 
 Each step (between `mj_step1` and `mj_step2`, so positions and velocities are current):
 1. foot contacts and heading frames are measured;
@@ -64,6 +67,7 @@ class ControllerRuntime:
 
     The controller is lowered to a kernel program once (`quadpipe.controllers.runtime.lowering`); each step is
     then one call of `quadpipe.controllers.runtime.kernel.run` over the model's and data's own arrays.
+    The model's `dof_damping` when the runtime is built is its base damping (see `release`).
 
     Args:
         compiled: the controller compiled for the placements' animals (same order).
@@ -224,6 +228,14 @@ class ControllerRuntime:
 
     # ------------------------------------------------------------------ step
 
+    def release(self) -> None:
+        """Give the model back as this runtime found it: its `dof_damping` set to the base values.
+
+        A released runtime may still be read (`last`, states, sensors) and adopted from; stepping
+        it again writes its damping again.
+        """
+        self.model.dof_damping[:] = self._arrays["base_damping"]
+
     def apply(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Add this step's forces to `data.xfrc_applied` and `data.qfrc_applied`."""
         self._run(data, len(self.program.code), finish=True)
@@ -356,24 +368,29 @@ class ControllerRuntime:
         return [names[i] for i in self._arrays["state"][list(self.program.machines).index(machine)]]
 
 
-def build_runtime(
+def compile_for(
     controller: str,
-    model: mujoco.MjModel,
     placements: Sequence[Placement],
     parameters: Mapping[str, Any] | None = None,
     *,
     scene_parameters: Mapping[str, Any] | None = None,
-) -> ControllerRuntime:
-    """Load a controller by name or path, compile it for the placed animals and bind it to a model.
+) -> tuple[CompiledController, tuple[str, ...]]:
+    """Load a controller by name or path and compile it for the placed animals.
 
     Args:
         controller: a built-in controller name or a YAML path.
-        model: the compiled world.
         placements: the animals it drives.
         parameters: parameter overrides (values as written in YAML); a name the controller
             does not declare is an error.
         scene_parameters: values a scene offers (its goals); only those the controller
             declares are used, and `parameters` win over them.
+
+    Returns:
+        the compiled controller (bind it with `ControllerRuntime`), and the files it was read
+        from (the requested one first), for a caller that watches them.
+
+    Raises:
+        QuadpipeError: the files do not validate, or an override does not fit them.
     """
     spec = load_controller(controller)
     offered = {name: value for name, value in (scene_parameters or {}).items() if name in spec.parameters}
@@ -381,4 +398,4 @@ def build_runtime(
     if overrides:
         spec = load_controller(controller, parameters=overrides)
     scale = scale_for_animals([p.built.animal for p in placements])
-    return ControllerRuntime(compile_controller(spec, scale), model, placements)
+    return compile_controller(spec, scale), spec.sources

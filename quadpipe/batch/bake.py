@@ -1,0 +1,52 @@
+"""Baking: one simulation written into clip files (the suffix picks the format) and a metrics JSON.
+
+`quadpipe simulate` and `quadpipe bake` bake once, straight into their files; every batch job
+bakes the same way into a staging folder, then renames the files into place
+(`quadpipe.batch.jobs`).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Mapping, Sequence
+
+from quadpipe.animals.sizing import FRAME_RATE
+
+if TYPE_CHECKING:
+    from quadpipe.sim.simulation import Result
+
+METRICS_SUFFIX = ".metrics.json"
+"""A bake's metrics file: `<stem>.metrics.json` (a batch job's stem is its name)."""
+
+
+def bake(
+    animal: str,
+    controller: str,
+    *,
+    seconds: float,
+    outputs: Sequence[Path],
+    metrics_path: Path,
+    scene: str | None = None,
+    parameters: Mapping[str, str] | None = None,
+    fps: float = FRAME_RATE,
+    on_frame: Callable[[float], None] | None = None,
+) -> "Result":
+    """Simulate once (see `quadpipe.sim.simulation.simulate`), write the clip into every output,
+    then the metrics JSON.
+
+    Raises:
+        QuadpipeError: the inputs cannot be loaded, the simulation blew up, a file cannot be
+            written.
+    """
+    from quadpipe.core.atomic import write_text
+    from quadpipe.exporters import export_clip
+    from quadpipe.sim.simulation import simulate
+
+    result = simulate(
+        animal, controller, seconds=seconds, scene=scene, parameters=dict(parameters or {}), on_frame=on_frame, fps=fps
+    )
+    for output in outputs:
+        export_clip(result.clip, output)
+    write_text(metrics_path, json.dumps(result.metrics, indent=2) + "\n")
+    return result
