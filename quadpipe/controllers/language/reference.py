@@ -22,7 +22,8 @@ from quadpipe.quantities.expressions import CONSTANTS, FUNCTIONS, LEG_LANDMARKS,
 from quadpipe.controllers.language.schema import BodyPoint, ControllerFile, Direction, ELEMENT_TYPES, ELEMENT_TYPE_NAMES, Elastic, ElementNames, FrameName, LegSet, Parameter, PointMap, Quantity, RoleGlobs, SENSOR_KINDS, State, Strength, Transition
 from quadpipe.quantities.units import UNITS, dimension_name
 from quadpipe.controllers.language.loader import BUILTIN_GROUPS, unwrap_annotation
-from quadpipe.controllers.language.semantics import SENSOR_TYPES, field_markers
+from quadpipe.controllers.language.marked import field_markers
+from quadpipe.controllers.language.parameters import SENSOR_TYPES
 from quadpipe.controllers.language.validate import ISSUE_CODES
 
 SCHEMA_PATH = Path("schemas") / "controller.schema.json"

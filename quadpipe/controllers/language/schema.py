@@ -1,7 +1,7 @@
 """The controller file format: pydantic models of `configs/controllers/<name>.yaml`.
 
 These models check a file's structure (keys, nesting, value shapes). The meaning of the
-values — units, names, roles, references — is checked afterwards by `semantics.py`, which
+values — units, names, roles, references — is checked afterwards (`semantics.py`), which
 finds the fields to check through the markers placed in their `Annotated` types
 (`Quantity`, `BodyPoint`, `PointMap`, `RoleGlobs`, `LegSet`, `FrameName`, `ElementNames`).
 The same models generate the JSON Schema (`schemas/controller.schema.json`) and the key
