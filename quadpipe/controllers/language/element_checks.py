@@ -14,7 +14,8 @@ import numpy as np
 
 from quadpipe.anatomy.roles import LEGS, PARENT, ROLES, match_roles
 from quadpipe.controllers.language import schema
-from quadpipe.controllers.language.loader import ElementEntry, MergedController, Origin, resolve_legs
+from quadpipe.controllers.language.entries import ElementEntry, MergedController, Origin
+from quadpipe.controllers.language.templates import resolve_legs
 from quadpipe.controllers.language.marked import iter_marked
 from quadpipe.controllers.language.parameters import cycle_names, element_namespace, sensor_types
 from quadpipe.core.errors import Issue, Location, did_you_mean

@@ -8,7 +8,8 @@ import pydantic
 
 from quadpipe.controllers.language import schema
 from quadpipe.controllers.language.element_checks import ElementChecks, canonical
-from quadpipe.controllers.language.loader import ElementEntry, Origin, deep_merge, match_names, pydantic_issues
+from quadpipe.controllers.language.entries import ElementEntry, Origin
+from quadpipe.controllers.language.loader import deep_merge, match_names, pydantic_issues
 from quadpipe.controllers.language.parameters import ParameterTyping, type_parameters
 from quadpipe.controllers.language.spec import MachineSpec, StateSpec, TransitionSpec
 from quadpipe.core.errors import Location, did_you_mean

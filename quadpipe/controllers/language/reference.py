@@ -19,9 +19,10 @@ import pydantic
 
 from quadpipe.anatomy import roles
 from quadpipe.quantities.expressions import CONSTANTS, FUNCTIONS, LEG_LANDMARKS, LOCAL_HELP, POINT_ANCHORS, TIME_VARIABLE
-from quadpipe.controllers.language.schema import BodyPoint, ControllerFile, Direction, ELEMENT_TYPES, ELEMENT_TYPE_NAMES, Elastic, ElementNames, FrameName, LegSet, Parameter, PointMap, Quantity, RoleGlobs, SENSOR_KINDS, State, Strength, Transition
+from quadpipe.controllers.language.schema import BodyPoint, ControllerFile, Direction, ELEMENT_TYPES, ELEMENT_TYPE_NAMES, Elastic, ElementNames, FrameName, LegSet, Parameter, PointMap, Quantity, RoleGlobs, SENSOR_KINDS, State, Strength, Transition, Tunable
 from quadpipe.quantities.units import UNITS, dimension_name
-from quadpipe.controllers.language.loader import BUILTIN_GROUPS, unwrap_annotation
+from quadpipe.controllers.language.loader import unwrap_annotation
+from quadpipe.controllers.language.templates import BUILTIN_GROUPS
 from quadpipe.controllers.language.marked import field_markers
 from quadpipe.controllers.language.parameters import SENSOR_TYPES
 from quadpipe.controllers.language.validate import ISSUE_CODES
@@ -37,7 +38,7 @@ END_MARKER = "<!-- END GENERATED REFERENCE -->"
 
 JSON_SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
 
-PARTS: tuple[type[pydantic.BaseModel], ...] = (Direction, Strength, Elastic, Parameter, State, Transition)
+PARTS: tuple[type[pydantic.BaseModel], ...] = (Direction, Strength, Elastic, Tunable, Parameter, State, Transition)
 """Nested mappings documented after the elements."""
 
 

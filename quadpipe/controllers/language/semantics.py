@@ -21,6 +21,7 @@ from typing import Any, Callable, Mapping
 
 from quadpipe.core import configs
 from quadpipe.controllers.language.element_checks import canonical
+from quadpipe.controllers.language.entries import Bound, ParameterEntry
 from quadpipe.controllers.language.loader import CONTROLLER_KIND, merge_controller
 from quadpipe.controllers.language.machine_checks import MachineChecks
 from quadpipe.controllers.language.parameters import ParameterTyping, clash, type_parameters
@@ -93,6 +94,7 @@ class _Analysis(MachineChecks):
     def run(self) -> ControllerSpec | None:
         self.check_names()
         typing_ = self.type_parameters()
+        self.check_tunables(typing_)
         failed = set(typing_.errors) | typing_.skipped | self.clashing
         namespace = expressions.Namespace(typing_.exprs, self.sensors, self.cycles, parameter_texts={n: str(e.value) for n, e in self.merged.parameters.items()})
         elements = {}
@@ -111,14 +113,57 @@ class _Analysis(MachineChecks):
         self._warn_unused()
         if any(issue.severity == "error" for issue in self.issues):
             return None
-        parameters = {
-            name: ParameterSpec(name, entry.value, entry.description, typing_.exprs[name].type, entry.where)
-            for name, entry in self.merged.parameters.items()
-        }
-        for name, value in self.overrides.items():
-            parameters[name] = ParameterSpec(name, value, parameters[name].description, typing_.exprs[name].type, self.override_where(name))
+        parameters = {name: self._parameter_spec(name, entry, typing_) for name, entry in self.merged.parameters.items()}
         warnings = tuple(issue for issue in self.issues if issue.severity != "error")
         return ControllerSpec(self.merged.name, self.merged.description, tuple(self.merged.sources), parameters, elements, machines, warnings)
+
+    def _parameter_spec(self, name: str, entry: ParameterEntry, typing_: ParameterTyping) -> ParameterSpec:
+        """The spec of a parameter or a tunable, with its override's value and place if it has one."""
+        value, where = (self.overrides[name], self.override_where(name)) if name in self.overrides else (entry.value, entry.where)
+        limits = (entry.low.value, entry.high.value) if entry.tunable and entry.low and entry.high else None
+        return ParameterSpec(name, value, entry.description, typing_.exprs[name].type, where, limits)
+
+    # -- tunables
+
+    def check_tunables(self, typing_: ParameterTyping) -> None:
+        """Every tunable is a constant number within its range (the file's value, or its override's)."""
+        namespace = expressions.Namespace(typing_.exprs, self.sensors, self.cycles)
+        for name, entry in self.merged.parameters.items():
+            if entry.tunable and name in typing_.exprs and name not in self.clashing:
+                self._check_tunable(name, entry, typing_.exprs[name], namespace)
+
+    def _check_tunable(self, name: str, entry: ParameterEntry, expr: expressions.Expr, namespace: expressions.Namespace) -> None:
+        value, where = (self.overrides[name], self.override_where(name)) if name in self.overrides else (entry.value, entry.where)
+        if expr.type.kind != expressions.SCALAR or not expr.is_constant:
+            got = expr.type.describe() if expr.type.kind != expressions.SCALAR else "a value that changes during the simulation"
+            self.error("tunable-not-constant", f"tunable {name!r} must be a constant number, got {got}", where, "a tunable is a knob; formulas go in `parameters:`")
+            return
+        low, high = (self._bound(name, end, bound, expr.type, namespace) for end, bound in (("min", entry.low), ("max", entry.high)))
+        if low is None or high is None:
+            return
+        if low > high:
+            self.error("bad-range", f"the range of tunable {name!r} is empty: min {entry.low.value} is above max {entry.high.value}", entry.low.where)
+        elif not low <= float(expressions.evaluate_constant(expr)) <= high:
+            self.error(
+                "out-of-range",
+                f"tunable {name!r} is {value}, outside its range {entry.low.value} to {entry.high.value}",
+                where,
+                "give a value in the range (bw, HP and g count as for an animal of bw 1 N and HP 1 m), or widen the range in the controller",
+            )
+
+    def _bound(self, name: str, end: str, bound: Bound | None, typ: expressions.Type, namespace: expressions.Namespace) -> float | None:
+        """The value of one end of a tunable's range, None if it has a problem (reported)."""
+        if bound is None:
+            return None
+        try:
+            expr = expressions.check(bound.value, namespace)
+        except expressions.ExprError as exc:
+            self.error(exc.code, exc.message, bound.where, exc.hint)
+            return None
+        if expr.type != typ or not expr.is_constant:
+            self.error("wrong-dimension", f"the {end} of tunable {name!r} must be a constant {typ.describe()}, like its value, got {expr.type.describe()}", bound.where)
+            return None
+        return float(expressions.evaluate_constant(expr))
 
     def _check_ownership(self, machines: Mapping[str, MachineSpec]) -> None:
         owner: dict[str, str] = {}
@@ -137,7 +182,8 @@ class _Analysis(MachineChecks):
         top = self.merged.sources[0]
         for name, parameter in self.merged.parameters.items():
             if parameter.file == top and name not in self.used:
-                self.warn("unused-parameter", f"parameter {name!r} is never used", parameter.where, "remove it, or use it in an element")
+                what = "tunable" if parameter.tunable else "parameter"
+                self.warn("unused-parameter", f"{what} {name!r} is never used", parameter.where, "remove it, or use it in an element")
         for name, entry in self.entries.items():
             if entry.raw["type"] == "sensor" and name not in self.used and entry.origin.layers[0].doc.file == top:
                 self.warn("unused-sensor", f"sensor {name!r} is never used", entry.origin.locate(("name",)), "use it in an expression by its name, or remove it")
