@@ -357,7 +357,7 @@ class Tunable(Parameter):
     """A knob an animator turns: a constant with a range, listed by `quadpipe controllers NAME` (the short form `name: value` changes the value of a tunable of the extended controller)."""
 
     description: Annotated[str, Field("", description="What it changes in the motion, for animators; may be left out where the extended controller's tunable of the same name has one.")]
-    min: Annotated[Value | None, Field(None, description="Smallest value allowed, in the value's kind of unit (`0 bw`); may be left out where the extended controller's tunable of the same name has one. A value below it is an error.")]
+    min: Annotated[Value | None, Field(None, description="Smallest value allowed, in the value's kind of unit (`0.1 bw`; a bare `0` is zero in any unit); may be left out where the extended controller's tunable of the same name has one. A value below it is an error.")]
     max: Annotated[Value | None, Field(None, description="Largest value allowed (`1 bw`), likewise.")]
 
 

@@ -160,7 +160,7 @@ class _Analysis(MachineChecks):
         except expressions.ExprError as exc:
             self.error(exc.code, exc.message, bound.where, exc.hint)
             return None
-        if expr.type != typ or not expr.is_constant:
+        if not expr.is_constant or (expr.type != typ and not _plain_zero(expr)):
             self.error("wrong-dimension", f"the {end} of tunable {name!r} must be a constant {typ.describe()}, like its value, got {expr.type.describe()}", bound.where)
             return None
         return float(expressions.evaluate_constant(expr))
@@ -187,6 +187,11 @@ class _Analysis(MachineChecks):
         for name, entry in self.entries.items():
             if entry.raw["type"] == "sensor" and name not in self.used and entry.origin.layers[0].doc.file == top:
                 self.warn("unused-sensor", f"sensor {name!r} is never used", entry.origin.locate(("name",)), "use it in an expression by its name, or remove it")
+
+
+def _plain_zero(expr: expressions.Expr) -> bool:
+    """Whether an expression is a bare 0, which a range may give for zero of any unit."""
+    return expr.op == "num" and expr.type == expressions.NUMBER and expr.value == 0.0
 
 
 def analyze_controller(
