@@ -438,6 +438,15 @@ def test_an_extending_controller_sets_a_tunable_and_keeps_its_range(tmp_path: Pa
     assert (hold.value, hold.limits, hold.description) == ("3 bw/HP", (0, "4 bw/HP"), "How firmly the legs hold their length.")
 
 
+def test_a_tunable_needs_a_range_and_a_description(tmp_path: Path) -> None:
+    path = write_knobs(tmp_path, KNOBS.replace("    description: How firmly the legs hold their length.\n    min: 0\n", ""))
+    with pytest.raises(QuadpipeError) as caught:
+        load_controller(path)
+    assert [(issue.code, issue.message, issue.where.line) for issue in caught.value.issues] == [
+        ("missing-key", "tunable 'hold' needs `description`, `min`", 5),
+    ]
+
+
 def test_the_shipped_gaits_have_tunables_and_keep_their_formulas_in_parameters() -> None:
     walk = load_controller("walk")
     assert {"froude", "duty", "phase_lf", "stance_stiffness"} <= set(walk.tunables)

@@ -15,9 +15,9 @@ import numpy as np
 from quadpipe.anatomy.roles import LEGS, PARENT, ROLES, match_roles
 from quadpipe.controllers.language import schema
 from quadpipe.controllers.language.entries import ElementEntry, MergedController, Origin
-from quadpipe.controllers.language.templates import resolve_legs
 from quadpipe.controllers.language.marked import iter_marked
 from quadpipe.controllers.language.parameters import cycle_names, element_namespace, sensor_types
+from quadpipe.controllers.language.templates import resolve_legs
 from quadpipe.core.errors import Issue, Location, did_you_mean
 from quadpipe.quantities import expressions
 
@@ -39,7 +39,6 @@ class _Checked:
 
     replacements: dict[tuple[Any, ...], Any] = field(default_factory=dict)
     names: set[str] = field(default_factory=set)
-
 
 
 class ElementChecks:
