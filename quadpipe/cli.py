@@ -250,16 +250,26 @@ def schema(kind: Annotated[SchemaKind, typer.Argument(help="Which file format.")
 
 
 @app.command()
-def controllers() -> None:
-    """List the built-in controllers with their descriptions.
+def controllers(
+    name: Annotated[
+        Optional[str], typer.Argument(help="A controller (built-in name or file) whose tunables to show.")
+    ] = None,
+) -> None:
+    """List the built-in controllers; given one, show its tunables: value, range and what each changes.
 
-    Example: quadpipe controllers
+    Example: quadpipe controllers walk
     """
     from quadpipe.core import configs
     from quadpipe.controllers.language import load_controller
 
-    rows = [[name, load_controller(name).description] for name in configs.available("controllers")]
-    _print_table("Controllers", ["name", "description"], rows)
+    if name is None:
+        rows = [[name, load_controller(name).description] for name in configs.available("controllers")]
+        _print_table("Controllers", ["name", "description"], rows)
+        return
+    spec = load_controller(name)
+    typer.echo(f"{spec.name}: {spec.description}")
+    rows = [[tunable.name, tunable.value, " to ".join(map(str, tunable.limits)), tunable.description] for tunable in spec.tunables.values()]
+    _print_table(f"Tunables of {spec.name} (set with --set NAME=VALUE)", ["tunable", "value", "range", "description"], rows)
 
 
 @app.command()

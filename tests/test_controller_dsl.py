@@ -341,6 +341,130 @@ def test_force_pair_weights_are_normalised(tmp_path: Path, two_animals: Scale) -
     assert tug.value("reaction", "pelvis.start").constant == pytest.approx([0.75, 0.75])
 
 
+# --------------------------------------------------------------------------- tunables and parameter templates
+
+
+KNOBS = """schema: 1
+name: knobs
+tunables:
+  hold:
+    value: 2 bw/HP
+    description: How firmly the legs hold their length.
+    min: 0
+    max: 4 bw/HP
+  front_ratio: {value: 1.1, description: Length of the front legs., min: 0.5, max: 1.5}
+  hind_ratio: {value: 1.2, description: Length of the hind legs., min: 0.5, max: 1.5}
+parameters:
+  "{leg}_ratio":
+    for_each: all_legs
+    value: "{pair}_ratio"
+    description: Length of {leg}.
+elements:
+  - type: segment
+    name: "{leg}_leg"
+    for_each: all_legs
+    from: "{leg}.top"
+    to: "{leg}.foot"
+    elastic: {stiffness: hold, ratio: "{leg}_ratio"}
+"""
+"""A controller with tunables, and a parameter per leg from a template."""
+
+
+def write_knobs(folder: Path, text: str = KNOBS) -> Path:
+    path = folder / "knobs.yaml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_for_each_makes_one_parameter_per_leg_with_leg_and_pair_replaced(tmp_path: Path, two_animals: Scale) -> None:
+    spec = load_controller(write_knobs(tmp_path))
+    assert {name: (p.value, p.description) for name, p in spec.parameters.items() if name.endswith("_ratio") and "_" in name[:3]} == {
+        "lf_ratio": ("front_ratio", "Length of lf."),
+        "rf_ratio": ("front_ratio", "Length of rf."),
+        "lh_ratio": ("hind_ratio", "Length of lh."),
+        "rh_ratio": ("hind_ratio", "Length of rh."),
+    }
+    compiled = compile_controller(spec, two_animals)
+    assert compiled.elements["rf_leg"].value("elastic", "ratio").constant == pytest.approx([1.1, 1.1])
+    assert compiled.elements["lh_leg"].value("elastic", "ratio").constant == pytest.approx([1.2, 1.2])
+
+
+def test_a_parameter_template_needs_leg_in_its_name(tmp_path: Path) -> None:
+    path = write_knobs(tmp_path, KNOBS.replace('"{leg}_ratio":', "ratio:").replace('"{leg}_ratio"}', "ratio}"))
+    with pytest.raises(QuadpipeError) as caught:
+        load_controller(path)
+    (issue,) = caught.value.issues
+    assert (issue.code, issue.where.line, issue.where.column) == ("template-name", 12, 3)
+
+
+def test_tunables_are_parameters_with_a_range(tmp_path: Path) -> None:
+    spec = load_controller(write_knobs(tmp_path))
+    assert list(spec.tunables) == ["hold", "front_ratio", "hind_ratio"]
+    assert spec.tunables["hold"].limits == (0, "4 bw/HP")
+    assert not spec.parameters["lf_ratio"].tunable
+
+
+def test_a_tunable_outside_its_range_is_an_error_at_its_value(tmp_path: Path) -> None:
+    path = write_knobs(tmp_path, KNOBS.replace("value: 2 bw/HP", "value: 5 bw/HP"))
+    with pytest.raises(QuadpipeError) as caught:
+        load_controller(path)
+    (issue,) = caught.value.issues
+    assert (issue.code, issue.where.file, issue.where.line, issue.where.column) == ("out-of-range", str(path), 5, 12)
+    assert issue.message == "tunable 'hold' is 5 bw/HP, outside its range 0 to 4 bw/HP"
+
+
+def test_a_tunable_can_be_overridden_within_its_range(tmp_path: Path, two_animals: Scale) -> None:
+    path = write_knobs(tmp_path)
+    spec = load_controller(path, {"hold": "3 bw/HP", "hind_ratio": 0.9})
+    assert spec.parameters["hold"].value == "3 bw/HP" and spec.parameters["hold"].limits == (0, "4 bw/HP")
+    compiled = compile_controller(spec, two_animals)
+    assert compiled.elements["lh_leg"].value("elastic", "ratio").constant == pytest.approx([0.9, 0.9])
+    assert compiled.elements["lf_leg"].value("elastic", "stiffness").constant == pytest.approx(3 * two_animals.bw / two_animals.hp)
+    with pytest.raises(QuadpipeError) as caught:
+        load_controller(path, {"hind_ratio": 2})
+    assert [(issue.code, issue.where.file) for issue in caught.value.issues] == [("out-of-range", "<parameters>")]
+
+
+def test_an_extending_controller_sets_a_tunable_and_keeps_its_range(tmp_path: Path) -> None:
+    write_knobs(tmp_path)
+    child = tmp_path / "child.yaml"
+    child.write_text("schema: 1\nname: child\nextends: knobs.yaml\ntunables:\n  hold: 3 bw/HP\n  hind_ratio: 1.7\n", encoding="utf-8")
+    with pytest.raises(QuadpipeError) as caught:
+        load_controller(child)
+    (issue,) = caught.value.issues
+    assert (issue.code, issue.where.file, issue.where.line) == ("out-of-range", str(child), 6)
+    child.write_text("schema: 1\nname: child\nextends: knobs.yaml\ntunables:\n  hold: 3 bw/HP\n", encoding="utf-8")
+    hold = load_controller(child).tunables["hold"]
+    assert (hold.value, hold.limits, hold.description) == ("3 bw/HP", (0, "4 bw/HP"), "How firmly the legs hold their length.")
+
+
+def test_a_tunable_needs_a_range_and_a_description(tmp_path: Path) -> None:
+    path = write_knobs(tmp_path, KNOBS.replace("    description: How firmly the legs hold their length.\n    min: 0\n", ""))
+    with pytest.raises(QuadpipeError) as caught:
+        load_controller(path)
+    assert [(issue.code, issue.message, issue.where.line) for issue in caught.value.issues] == [
+        ("missing-key", "tunable 'hold' needs `description`, `min`", 5),
+    ]
+
+
+def test_the_shipped_gaits_have_tunables_and_keep_their_formulas_in_parameters() -> None:
+    walk = load_controller("walk")
+    assert {"froude", "duty", "phase_lf", "stance_stiffness"} <= set(walk.tunables)
+    assert walk.tunables["froude"].value == 0.15 and walk.tunables["froude"].limits == (0.01, 5)
+    assert not walk.parameters["period"].tunable and not walk.parameters["lf_push"].tunable
+    auto = load_controller("auto_gait")
+    assert "froude" not in auto.tunables and {"start_froude", "end_froude"} <= set(auto.tunables)
+
+
+def test_quadpipe_controllers_name_lists_its_tunables(cli) -> None:
+    result = cli("controllers", "walk")
+    assert result.returncode == 0, result.stderr
+    rows = {line.split("│")[1].strip(): line for line in result.stdout.splitlines() if line.count("│") >= 5}
+    assert {"froude", "duty", "phase_lf", "fold_angle", "stance_stiffness"} <= set(rows)
+    assert "0.15" in rows["froude"] and "0.01 to 5" in rows["froude"] and "Target speed" in rows["froude"]
+    assert "period" not in rows and "lf_push" not in rows
+
+
 # --------------------------------------------------------------------------- validation output
 
 

@@ -18,7 +18,7 @@ import yaml
 
 from quadpipe.quantities.expressions import FUNCTIONS, HEADING_FRAME_KEY
 from quadpipe.controllers.language.compiler import compile_controller
-from quadpipe.controllers.language.semantics import load_controller
+from quadpipe.controllers.language.load import load_controller
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.controllers.runtime.runtime import ControllerRuntime
 from quadpipe.world import build_scene, load_scene

@@ -25,7 +25,8 @@ import numpy as np
 from quadpipe.quantities import expressions
 from quadpipe.controllers.language import schema
 from quadpipe.quantities.units import FORCE, LENGTH, Scale
-from quadpipe.controllers.language.semantics import cycle_names, element_namespace, iter_marked, sensor_types, type_parameters
+from quadpipe.controllers.language.marked import iter_marked
+from quadpipe.controllers.language.parameters import cycle_names, element_namespace, sensor_types, type_parameters
 from quadpipe.controllers.language.spec import ControllerSpec
 
 Path = tuple[str, ...]

@@ -1,12 +1,14 @@
 """Reading controller files: YAML, structure, leg templates and `extends` merging.
 
 `merge_controller(path)` reads a file and, recursively, the controllers it extends, and
-returns a `MergedController`: raw element mappings with their templates expanded
-(`for_each` -> one copy per leg with `{leg}` replaced), parents' elements merged by name
-(replaced, removed with `remove:`, changed with `override:`), parameters and groups merged
-by name, and every element validated against its pydantic model. Each element keeps an
-`Origin` that locates any of its keys in the file (and the override) it came from, so later
-checks can point at `file:line:col`.
+returns a `MergedController`: raw element mappings and parameters with their templates
+expanded (`for_each` -> one copy per leg with `{leg}` and `{pair}` replaced), parents'
+elements merged by name (replaced, removed with `remove:`, changed with `override:`),
+tunables, parameters and groups merged by name (a tunable inherits the range and the
+description it leaves out), and every element validated against its pydantic model. Each
+element keeps an `Origin` (`entries.py`) that locates any of its keys in the file (and the
+override) it came from, so later checks can point at `file:line:col`. Templates are
+expanded by `templates.py`.
 
 Problems are collected as `Issue`s rather than raised, so that one run reports them all.
 """
@@ -14,7 +16,6 @@ Problems are collected as `Issue`s rather than raised, so that one run reports t
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
@@ -23,159 +24,15 @@ import pydantic
 
 from quadpipe.core import configs
 from quadpipe.anatomy import roles
-from quadpipe.controllers.language.schema import LEG_PLACEHOLDER, MODEL_OF_TYPE, SCHEMA_VERSION, ControllerFile
+from quadpipe.controllers.language.entries import ElementEntry, Layer, MergedController, ParameterEntry
+from quadpipe.controllers.language.schema import MODEL_OF_TYPE, SCHEMA_VERSION, ControllerFile
+from quadpipe.controllers.language.templates import BUILTIN_GROUPS, expand_element, parameter_copies, placeholder_issues, resolve_legs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.yamlio import YamlDocument, field_names_at, load_yaml
 from quadpipe.core.yamlio import unwrap_annotation as unwrap_annotation  # re-exported
 
-BUILTIN_GROUPS: dict[str, tuple[str, ...]] = {
-    "all_legs": ("lf", "rf", "lh", "rh"),
-    "front_legs": ("lf", "rf"),
-    "hind_legs": ("lh", "rh"),
-    "left_legs": ("lf", "lh"),
-    "right_legs": ("rf", "rh"),
-}
-"""Leg groups every controller can use in `for_each`, `feet` and its own `groups`."""
-
-PLACEHOLDER = re.compile(r"\{[^{}\s]*\}")
-"""Text that looks like a placeholder, such as `{leg}` or a mistyped `{legs}`."""
-
 CONTROLLER_KIND = "controllers"
 """The configs folder holding built-in controllers."""
-
-
-@dataclass(frozen=True)
-class Layer:
-    """One source of an element's keys: a mapping in a YAML document.
-
-    Attributes:
-        doc: the document.
-        base: path of the mapping in the document.
-        raw: the mapping, after `{leg}` substitution.
-        key_map: keys changed by substitution -> the key as written, to find positions.
-    """
-
-    doc: YamlDocument
-    base: tuple[Any, ...]
-    raw: Any
-    key_map: Mapping[Any, Any] = field(default_factory=dict)
-
-    def holds(self, path: tuple[Any, ...]) -> bool:
-        """Whether the mapping contains `path`."""
-        node = self.raw
-        for part in path:
-            if isinstance(node, dict) and part in node:
-                node = node[part]
-            elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
-                node = node[part]
-            else:
-                return False
-        return True
-
-    def locate(self, path: tuple[Any, ...], key: bool) -> Location:
-        """Position of `path` in the document."""
-        written = tuple(self.key_map.get(part, part) for part in path)
-        return self.doc.locate(self.base + written, key=key)
-
-
-@dataclass(frozen=True)
-class Origin:
-    """Where an element's keys come from: layers from the original element to the last patch."""
-
-    layers: tuple[Layer, ...]
-
-    def locate(self, path: Iterable[Any] = (), key: bool = False) -> Location:
-        """Position of a key path of the element, in the latest layer that sets it."""
-        path = tuple(path)
-        layers = self.layers[self._last_replacing(path):]
-        for size in range(len(path), -1, -1):
-            for layer in reversed(layers):
-                if layer.holds(path[:size]):
-                    return layer.locate(path[:size], key and size == len(path))
-        return self.layers[0].locate((), key)
-
-    def _last_replacing(self, path: tuple[Any, ...]) -> int:
-        """Index of the last layer that replaced a part of `path` by a plain value, 0 if none.
-
-        Keys that earlier layers had below that part are gone, so their positions must not be
-        reported (`strength: 20 deg` over a parent's `strength: {force: ...}`).
-        """
-        for index in range(len(self.layers) - 1, 0, -1):
-            node = self.layers[index].raw
-            for part in path[:-1]:
-                if not isinstance(node, dict) or part not in node:
-                    break
-                node = node[part]
-                if not isinstance(node, (dict, list)):
-                    return index
-        return 0
-
-    def sublayer(self, path: tuple[Any, ...], raw: Any) -> Layer:
-        """A layer for the mapping `raw` found at `path` inside this element (a state's patch)."""
-        for layer in reversed(self.layers):
-            if layer.holds(path):
-                written = tuple(layer.key_map.get(part, part) for part in path)
-                return Layer(layer.doc, layer.base + written, raw, layer.key_map)
-        return Layer(self.layers[-1].doc, self.layers[-1].base + path, raw)
-
-    def patched(self, layer: Layer) -> "Origin":
-        """This origin with one more patch on top."""
-        return Origin((*self.layers, layer))
-
-
-@dataclass
-class ElementEntry:
-    """One element after template expansion and merging.
-
-    Attributes:
-        name: its (expanded) name.
-        raw: its keys, as plain data.
-        origin: where each key comes from.
-        template: the name as written (with {leg}) for a `for_each` copy.
-        model: the validated pydantic model, set once the merge is complete.
-    """
-
-    name: str
-    raw: dict[str, Any]
-    origin: Origin
-    template: str | None = None
-    model: Any = None
-
-    @property
-    def label(self) -> str:
-        """How messages name it: the template's name for a `for_each` copy, so copies agree."""
-        return f"element {self.template or self.name!r}"
-
-
-@dataclass(frozen=True)
-class ParameterEntry:
-    """A parameter as written: its value, description and position."""
-
-    value: Any
-    description: str
-    where: Location
-    file: str
-
-
-@dataclass
-class MergedController:
-    """A controller with its `extends` chain merged, before meaning is checked.
-
-    Attributes:
-        name: the controller's name.
-        description: its description.
-        sources: files read, the requested one first.
-        parameters: name -> entry (children replace parents').
-        groups: leg groups, built-in ones included.
-        elements: name -> entry, in order (parents' first, replaced ones in place).
-    """
-
-    name: str
-    description: str
-    sources: list[str]
-    parameters: dict[str, ParameterEntry]
-    groups: dict[str, tuple[str, ...]]
-    elements: dict[str, ElementEntry]
 
 
 # --------------------------------------------------------------------------- pydantic errors
@@ -306,90 +163,6 @@ def _raw_elements(doc: YamlDocument, issues: list[Issue]) -> list[tuple[tuple[An
 # --------------------------------------------------------------------------- templates
 
 
-def resolve_legs(items: Iterable[str], groups: Mapping[str, tuple[str, ...]]) -> tuple[list[str], list[str]]:
-    """Legs named by leg prefixes and group names, in order without repeats; and the unknown names."""
-    legs: list[str] = []
-    unknown = []
-    for item in items:
-        members = (item,) if item in roles.LEGS else groups.get(item)
-        if members is None:
-            unknown.append(item)
-            continue
-        legs.extend(leg for leg in members if leg not in legs)
-    return legs, unknown
-
-
-def _substitute(value: Any, leg: str, key_map: dict[Any, Any]) -> Any:
-    if isinstance(value, str):
-        return value.replace(LEG_PLACEHOLDER, leg)
-    if isinstance(value, list):
-        return [_substitute(item, leg, key_map) for item in value]
-    if isinstance(value, dict):
-        out = {}
-        for key, item in value.items():
-            new_key = _substitute(key, leg, key_map)
-            if new_key != key:
-                key_map[new_key] = key
-            out[new_key] = _substitute(item, leg, key_map)
-        return out
-    return value
-
-
-def _expand(
-    doc: YamlDocument, path: tuple[Any, ...], raw: dict[str, Any], groups: Mapping[str, tuple[str, ...]], issues: list[Issue]
-) -> list[ElementEntry]:
-    """One entry per leg for a `for_each` element, or the element itself."""
-    for_each = raw.get("for_each")
-    if for_each is None:
-        return [ElementEntry(raw["name"], raw, Origin((Layer(doc, path, raw),)))]
-    items = for_each if isinstance(for_each, list) else [for_each]
-    if not all(isinstance(item, str) for item in items):
-        issues.append(Issue("invalid-value", "`for_each` lists legs (lf, rf, lh, rh) or group names", doc.locate(path + ("for_each",))))
-        return []
-    legs, unknown = resolve_legs(items, groups)
-    for name in unknown:
-        issues.append(Issue("unknown-leg", f"{name!r} is neither a leg nor a group", doc.locate(path + ("for_each",)), did_you_mean(name, [*roles.LEGS, *groups])))
-    if LEG_PLACEHOLDER not in raw["name"]:
-        issues.append(
-            Issue("template-name", f"element {raw['name']!r} has `for_each` but its name lacks {LEG_PLACEHOLDER}", doc.locate(path + ("name",)), f'each copy needs its own name, e.g. "{LEG_PLACEHOLDER}_{raw["name"]}"')
-        )
-        return []
-    entries = []
-    body = {key: value for key, value in raw.items() if key != "for_each"}
-    for leg in legs:
-        key_map: dict[Any, Any] = {}
-        copy = _substitute(body, leg, key_map)
-        entries.append(ElementEntry(copy["name"], copy, Origin((Layer(doc, path, copy, key_map),)), raw["name"]))
-    return entries
-
-
-def _placeholder_issues(entry: ElementEntry) -> list[Issue]:
-    """Placeholders left in an element: `{leg}` without `for_each`, or unknown ones."""
-    issues = []
-    for path, text in _strings(entry.raw, ()):
-        match = PLACEHOLDER.search(text)
-        if match is None:
-            continue
-        if match.group() == LEG_PLACEHOLDER:
-            issues.append(Issue("unknown-placeholder", f"{LEG_PLACEHOLDER} in {entry.label}, which has no `for_each`", entry.origin.locate(path), "add `for_each: all_legs` (or the legs it is for)"))
-        else:
-            issues.append(Issue("unknown-placeholder", f"unknown placeholder {match.group()} in {entry.label}", entry.origin.locate(path), f"the only placeholder is {LEG_PLACEHOLDER}"))
-    return issues
-
-
-def _strings(value: Any, path: tuple[Any, ...]) -> Iterable[tuple[tuple[Any, ...], str]]:
-    if isinstance(value, str):
-        yield path, value
-    elif isinstance(value, list):
-        for index, item in enumerate(value):
-            yield from _strings(item, path + (index,))
-    elif isinstance(value, dict):
-        for key, item in value.items():
-            if isinstance(key, str):
-                yield path + (key,), key
-            yield from _strings(item, path + (key,))
-
-
 # --------------------------------------------------------------------------- merging
 
 
@@ -439,13 +212,32 @@ def _own_groups(doc: YamlDocument, model: ControllerFile, inherited: Mapping[str
     return groups
 
 
-def _own_parameters(doc: YamlDocument, model: ControllerFile) -> dict[str, ParameterEntry]:
-    entries = {}
-    for name, parameter in model.parameters.items():
-        long_form = isinstance(doc.data["parameters"][name], dict)
-        where = doc.locate(("parameters", name, "value") if long_form else ("parameters", name))
-        entries[name] = ParameterEntry(parameter.value, parameter.description, where, doc.file)
+def _own_parameters(
+    doc: YamlDocument, model: ControllerFile, groups: Mapping[str, tuple[str, ...]], inherited: Mapping[str, ParameterEntry], issues: list[Issue]
+) -> dict[str, ParameterEntry]:
+    """The file's tunables and parameters, templates expanded, tunables completed from `inherited`."""
+    entries: dict[str, ParameterEntry] = {}
+    for section, written in (("tunables", model.tunables), ("parameters", model.parameters)):
+        for key, parameter in written.items():
+            for name, entry in parameter_copies(doc, section, key, parameter, groups, issues):
+                if name in entries:
+                    issues.append(Issue("duplicate-name", f"two tunables or parameters are named {name!r}", entry.where, "names must be unique across `tunables` and `parameters`; rename one"))
+                    continue
+                entries[name] = _completed(name, entry, inherited.get(name), issues) if entry.tunable else entry
     return entries
+
+
+def _completed(name: str, entry: ParameterEntry, parent: ParameterEntry | None, issues: list[Issue]) -> ParameterEntry:
+    """A tunable with the description and range it leaves out taken from the parent's tunable of that name."""
+    inherited = parent if parent is not None and parent.tunable else None
+    description = entry.description or (inherited.description if inherited else "")
+    low = entry.low or (inherited.low if inherited else None)
+    high = entry.high or (inherited.high if inherited else None)
+    missing = [key for key, given in (("description", description), ("min", low), ("max", high)) if not given]
+    if missing:
+        listed = ", ".join(f"`{key}`" for key in missing)
+        issues.append(Issue("missing-key", f"tunable {name!r} needs {listed}", entry.where, "a tunable is a knob: say what it changes and its range, e.g. `{value: 0.3, description: ..., min: 0, max: 1}`"))
+    return ParameterEntry(entry.value, description, entry.where, entry.file, True, low, high)
 
 
 def _apply_remove(doc: YamlDocument, model: ControllerFile, elements: dict[str, ElementEntry], issues: list[Issue]) -> None:
@@ -497,12 +289,13 @@ def _merge_file(path: Path, chain: tuple[Path, ...], issues: list[Issue]) -> Mer
         if parent is None:
             return None
     groups = _own_groups(doc, model, parent.groups if parent else BUILTIN_GROUPS, issues)
+    inherited = parent.parameters if parent else {}
     elements = dict(parent.elements) if parent else {}
     _apply_remove(doc, model, elements, issues)
     _apply_override(doc, model, elements, issues)
     own: dict[str, ElementEntry] = {}
     for element_path, raw in _raw_elements(doc, issues):
-        for entry in _expand(doc, element_path, raw, groups, issues):
+        for entry in expand_element(doc, element_path, raw, groups, issues):
             if entry.name in own:
                 issues.append(Issue("duplicate-name", f"two elements are named {entry.name!r}", entry.origin.locate(("name",)), "element names must be unique; rename one"))
                 continue
@@ -512,7 +305,7 @@ def _merge_file(path: Path, chain: tuple[Path, ...], issues: list[Issue]) -> Mer
         name=model.name,
         description=model.description,
         sources=[doc.file, *(parent.sources if parent else [])],
-        parameters={**(parent.parameters if parent else {}), **_own_parameters(doc, model)},
+        parameters={**inherited, **_own_parameters(doc, model, groups, inherited, issues)},
         groups=groups,
         elements=elements,
     )
@@ -535,7 +328,7 @@ def merge_controller(path: str | Path, issues: list[Issue]) -> MergedController 
     if merged is None:
         return None
     for entry in merged.elements.values():
-        issues.extend(_placeholder_issues(entry))
+        issues.extend(placeholder_issues(entry))
         model = MODEL_OF_TYPE[entry.raw["type"]]
         try:
             entry.model = model.model_validate(entry.raw)

@@ -19,10 +19,12 @@ import pydantic
 
 from quadpipe.anatomy import roles
 from quadpipe.quantities.expressions import CONSTANTS, FUNCTIONS, LEG_LANDMARKS, LOCAL_HELP, POINT_ANCHORS, TIME_VARIABLE
-from quadpipe.controllers.language.schema import BodyPoint, ControllerFile, Direction, ELEMENT_TYPES, ELEMENT_TYPE_NAMES, Elastic, ElementNames, FrameName, LegSet, Parameter, PointMap, Quantity, RoleGlobs, SENSOR_KINDS, State, Strength, Transition
+from quadpipe.controllers.language.schema import BodyPoint, ControllerFile, Direction, ELEMENT_TYPES, ELEMENT_TYPE_NAMES, Elastic, ElementNames, FrameName, LegSet, Parameter, PointMap, Quantity, RoleGlobs, SENSOR_KINDS, State, Strength, Transition, Tunable
 from quadpipe.quantities.units import UNITS, dimension_name
-from quadpipe.controllers.language.loader import BUILTIN_GROUPS, unwrap_annotation
-from quadpipe.controllers.language.semantics import SENSOR_TYPES, field_markers
+from quadpipe.controllers.language.loader import unwrap_annotation
+from quadpipe.controllers.language.templates import BUILTIN_GROUPS
+from quadpipe.controllers.language.marked import field_markers
+from quadpipe.controllers.language.parameters import SENSOR_TYPES
 from quadpipe.controllers.language.validate import ISSUE_CODES
 from quadpipe.core.yamlio import JSON_SCHEMA_DIALECT
 
@@ -35,7 +37,7 @@ DOCS_PATH = Path("docs") / "controllers.md"
 BEGIN_MARKER = "<!-- BEGIN GENERATED REFERENCE (python -m quadpipe.controllers.language.generate) -->"
 END_MARKER = "<!-- END GENERATED REFERENCE -->"
 
-PARTS: tuple[type[pydantic.BaseModel], ...] = (Direction, Strength, Elastic, Parameter, State, Transition)
+PARTS: tuple[type[pydantic.BaseModel], ...] = (Direction, Strength, Elastic, Tunable, Parameter, State, Transition)
 """Nested mappings documented after the elements."""
 
 

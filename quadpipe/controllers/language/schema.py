@@ -1,7 +1,7 @@
 """The controller file format: pydantic models of `configs/controllers/<name>.yaml`.
 
 These models check a file's structure (keys, nesting, value shapes). The meaning of the
-values — units, names, roles, references — is checked afterwards by `semantics.py`, which
+values — units, names, roles, references — is checked afterwards (`semantics.py`), which
 finds the fields to check through the markers placed in their `Annotated` types
 (`Quantity`, `BodyPoint`, `PointMap`, `RoleGlobs`, `LegSet`, `FrameName`, `ElementNames`).
 The same models generate the JSON Schema (`schemas/controller.schema.json`) and the key
@@ -26,7 +26,10 @@ SCHEMA_VERSION = 1
 """The only `schema:` version this quadpipe reads."""
 
 LEG_PLACEHOLDER = "{leg}"
-"""Replaced by each leg prefix in elements with `for_each`."""
+"""Replaced by each leg prefix in elements and parameters with `for_each`."""
+
+PAIR_PLACEHOLDER = "{pair}"
+"""Replaced by `front` or `hind`, the leg's pair, in elements and parameters with `for_each`."""
 
 FRAMES: tuple[str, ...] = ("heading", "world")
 """Frames a constant vector may be given in, besides a role's own frame."""
@@ -180,10 +183,14 @@ class Transition(_Model):
 # --------------------------------------------------------------------------- elements
 
 
+FOR_EACH_HELP = "legs (`lf`, `rf`, `lh`, `rh`) or groups (`all_legs`, `front_legs`, `hind_legs`, `left_legs`, `right_legs`, or your own)"
+"""What `for_each` lists, for the reference."""
+
+
 class _Element(_Model):
     name: Annotated[str, Field(description="Unique name of the element; with `for_each` it must contain `{leg}`.")]
     description: Annotated[str, Field("", description="What the element does, for animators.")]
-    for_each: Annotated[Names | None, LegSet(), Field(None, description="Make one copy per leg: legs (`lf`, `rf`, `lh`, `rh`) or groups (`all_legs`, `front_legs`, `hind_legs`, `left_legs`, `right_legs`, or your own); `{leg}` in any text of the element becomes the leg.")]
+    for_each: Annotated[Names | None, LegSet(), Field(None, description=f"Make one copy per leg: {FOR_EACH_HELP}; `{{leg}}` in any text of the element becomes the leg, `{{pair}}` its pair (`front` or `hind`).")]
 
 
 class _ForceElement(_Element):
@@ -289,10 +296,19 @@ MODEL_OF_TYPE: dict[str, type[_Element]] = dict(zip(ELEMENT_TYPE_NAMES, ELEMENT_
 
 
 class Parameter(_Model):
-    """A parameter with a description (the short form is just `name: value`)."""
+    """A parameter with a description (the short form is just `name: value`): a derived value or a formula the elements use."""
 
     value: Annotated[AnyValue, Field(description="The value: a number with a unit, a vector or an expression.")]
     description: Annotated[str, Field("", description="What it controls, for animators.")]
+    for_each: Annotated[Names | None, Field(None, description=f"Make one parameter per leg: {FOR_EACH_HELP}; its name must contain `{{leg}}`, which becomes the leg in the name, the value and the description, as does `{{pair}}` (`front` or `hind`).")]
+
+
+class Tunable(Parameter):
+    """A knob an animator turns: a constant with a range, listed by `quadpipe controllers NAME` (the short form `name: value` changes the value of a tunable of the extended controller)."""
+
+    description: Annotated[str, Field("", description="What it changes in the motion, for animators; may be left out where the extended controller's tunable of the same name has one.")]
+    min: Annotated[Value | None, Field(None, description="Smallest value allowed, in the value's kind of unit (`0.1 bw`; a bare `0` is zero in any unit); may be left out where the extended controller's tunable of the same name has one. A value below it is an error.")]
+    max: Annotated[Value | None, Field(None, description="Largest value allowed (`1 bw`), likewise.")]
 
 
 def _parameter_shorthand(value: Any) -> Any:
@@ -300,6 +316,7 @@ def _parameter_shorthand(value: Any) -> Any:
 
 
 ParameterField = Annotated[Parameter, BeforeValidator(_parameter_shorthand, json_schema_input_type=Union[float, str, _VECTOR_INPUT, Parameter])]
+TunableField = Annotated[Tunable, BeforeValidator(_parameter_shorthand, json_schema_input_type=Union[float, str, Tunable])]
 
 
 class ControllerFile(_Model):
@@ -308,8 +325,9 @@ class ControllerFile(_Model):
     schema_: Annotated[int, Field(alias="schema", description=f"Version of this file format; write `{SCHEMA_VERSION}`.")]
     name: Annotated[str, Field(description="Name of the controller, as used on the command line.")]
     description: Annotated[str, Field("", description="What the controller does, for animators.")]
-    extends: Annotated[str | None, Field(None, description="Controller to start from (a name like `rigid`, or a path relative to this file); this file's parameters and elements are added to its, replacing those with the same name.")]
-    parameters: Annotated[dict[str, ParameterField], Field({}, description="Named values used by the elements; tune the controller here. A value is a number with a unit, a vector or an expression.")]
+    extends: Annotated[str | None, Field(None, description="Controller to start from (a name like `rigid`, or a path relative to this file); this file's tunables, parameters and elements are added to its, replacing those with the same name.")]
+    tunables: Annotated[dict[str, TunableField], Field({}, description="The knobs of the controller: named constants with a description and a range, used by the elements like parameters and set like them (`--set name=value`, a scene's `parameters:`).")]
+    parameters: Annotated[dict[str, ParameterField], Field({}, description="Named values used by the elements: derived values and formulas (tune the controller with its `tunables`). A value is a number with a unit, a vector or an expression.")]
     groups: Annotated[dict[str, Names], Field({}, description="Your own leg groups for `for_each`: name -> legs.")]
     remove: Annotated[Names, ElementNames(), Field([], description="Elements of the extended controller to drop (names or globs).")]
     override: Annotated[dict[str, dict[str, Any]], Field({}, description="Keys to change in elements of the extended controller: element name -> keys, as in the element; `null` deletes a key.")]

@@ -20,13 +20,23 @@ from quadpipe.core.errors import Issue, Location
 
 @dataclass(frozen=True)
 class ParameterSpec:
-    """A parameter: its value as written, its checked type and where it was defined."""
+    """A parameter or a tunable: its value as written, its checked type and where it was defined.
+
+    Attributes:
+        limits: a tunable's range (min, max) as written; None for a parameter.
+    """
 
     name: str
     value: Any
     description: str
     type: expressions.Type
     where: Location
+    limits: tuple[Any, Any] | None = None
+
+    @property
+    def tunable(self) -> bool:
+        """Whether it is a knob of the controller (from `tunables:`)."""
+        return self.limits is not None
 
 
 @dataclass(frozen=True)
@@ -88,7 +98,7 @@ class ControllerSpec:
         name: its name.
         description: its description.
         sources: the files it was read from, the requested one first, then its parents.
-        parameters: name -> parameter, in definition order.
+        parameters: name -> parameter, tunables included, in definition order.
         elements: name -> canonical element model, in order (see module docstring).
         machines: state machine name -> its states and transitions.
         warnings: non-fatal issues found while checking it.
@@ -101,4 +111,9 @@ class ControllerSpec:
     elements: Mapping[str, Element]
     machines: Mapping[str, MachineSpec]
     warnings: tuple[Issue, ...] = field(default=())
+
+    @property
+    def tunables(self) -> dict[str, ParameterSpec]:
+        """The knobs of the controller, in definition order."""
+        return {name: parameter for name, parameter in self.parameters.items() if parameter.tunable}
 

@@ -31,7 +31,7 @@ import numpy as np
 from quadpipe.controllers.runtime.kernel import HEADING_MIN_NORM, INTEGER_ARRAYS, REAL_ARRAYS, pack, run
 from quadpipe.anatomy.roles import FOOT_BONES, LEGS, ROLES
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
-from quadpipe.controllers.language.semantics import load_controller
+from quadpipe.controllers.language.load import load_controller
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
 from quadpipe.world.placement import Placement

@@ -1,0 +1,22 @@
+"""Loading a controller: `load_controller(name_or_path)` -> a checked `ControllerSpec`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+from quadpipe.controllers.language.semantics import analyze_controller
+from quadpipe.controllers.language.spec import ControllerSpec
+from quadpipe.core.errors import QuadpipeError
+
+
+def load_controller(name_or_path: str | Path, parameters: Mapping[str, Any] | None = None) -> ControllerSpec:
+    """Load a controller by built-in name or path, with optional parameter values.
+
+    Raises:
+        QuadpipeError: every error found (warnings are kept in `spec.warnings`).
+    """
+    spec, issues = analyze_controller(name_or_path, parameters)
+    if spec is None:
+        raise QuadpipeError([issue for issue in issues if issue.severity == "error"])
+    return spec

@@ -1,0 +1,157 @@
+"""Parsing expression text: quadpipe's syntax rewritten to Python's, then a whitelisted `ast`.
+
+A unit written after a number binds to it (`38/30 s` is `(38/30)*s`, `x / 2 s` is
+`x / (2*s)`), and `^` means a power. Only a whitelist of syntax is accepted (arithmetic,
+comparisons, `and`/`or`/`not`, `a if c else b`, vector literals, calls, names, attributes and
+numbers); anything else is refused before evaluation, so no Python object is ever reached.
+"""
+
+from __future__ import annotations
+
+import ast
+import io
+import tokenize
+from typing import Any
+
+from quadpipe.quantities import units
+from quadpipe.quantities.nodes import ExprError
+
+
+def _is_unit_token(tokens: list[tokenize.TokenInfo], i: int) -> bool:
+    token = tokens[i]
+    if token.type != tokenize.NAME or token.string not in units.UNITS:
+        return False
+    after = tokens[i + 1] if i + 1 < len(tokens) else None
+    return after is None or after.string not in ("(", ".")
+
+
+def _unit_run(tokens: list[tokenize.TokenInfo], i: int) -> tuple[list[str], int]:
+    """Unit tokens starting at `i` (`bw`, `*`, `HP`, `/`, `rad`, `^`, `2`); returns them and the next index."""
+    out = [tokens[i].string]
+    i += 1
+    while i < len(tokens):
+        token = tokens[i]
+        if token.string in ("**", "^") and i + 1 < len(tokens):
+            j = i + 1
+            sign = ""
+            if tokens[j].string == "-" and j + 1 < len(tokens):
+                sign, j = "-", j + 1
+            if tokens[j].type == tokenize.NUMBER:
+                out += ["**", f"({sign}{tokens[j].string})"]
+                i = j + 1
+                continue
+            break
+        if token.string in ("*", "/") and i + 1 < len(tokens) and _is_unit_token(tokens, i + 1):
+            out += [token.string, tokens[i + 1].string]
+            i += 2
+            continue
+        break
+    return out, i
+
+
+def _numeric_run_start(out: list[str], kinds: list[int]) -> int:
+    """Index in `out` where the run of numbers joined by * and / ending at the last token starts."""
+    start = len(out) - 1
+    while start >= 2 and out[start - 1] in ("*", "/") and kinds[start - 2] == tokenize.NUMBER:
+        if start >= 3 and out[start - 3] in ("**",):
+            break
+        start -= 2
+    return start
+
+
+def rewrite(text: str) -> str:
+    """Turn quadpipe's expression syntax into Python syntax (unit binding, `^` powers).
+
+    Raises:
+        ExprError: the text cannot be split into tokens.
+    """
+    try:
+        tokens = [
+            t
+            for t in tokenize.generate_tokens(io.StringIO(text).readline)
+            if t.type not in (tokenize.NEWLINE, tokenize.NL, tokenize.ENDMARKER, tokenize.INDENT, tokenize.DEDENT)
+        ]
+    except (tokenize.TokenError, IndentationError, SyntaxError) as exc:
+        raise ExprError("expression-syntax", f"cannot read the expression {text!r}: {exc.args[0]}") from None
+    out: list[str] = []
+    kinds: list[int] = []
+    i = 0
+    while i < len(tokens):
+        token = tokens[i]
+        if token.type == tokenize.ERRORTOKEN and not token.string.isspace():
+            raise ExprError("expression-syntax", f"cannot read the expression {text!r}: unexpected character {token.string!r}")
+        if _is_unit_token(tokens, i) and kinds and kinds[-1] == tokenize.NUMBER:
+            start = _numeric_run_start(out, kinds)
+            unit_tokens, i = _unit_run(tokens, i)
+            number = out[start:]
+            del out[start:], kinds[start:]
+            out += ["(", "(", *number, ")", "*", *unit_tokens, ")"]
+            kinds += [tokenize.OP] * (len(number) + len(unit_tokens) + 4)
+            continue
+        out.append("**" if token.string == "^" else token.string)
+        kinds.append(token.type)
+        i += 1
+    return " ".join(out)
+
+
+def _syntax_hint(text: str) -> str:
+    """A hint for a syntax error, from common mistakes."""
+    try:
+        tokens = [t for t in tokenize.generate_tokens(io.StringIO(text).readline) if t.type in (tokenize.NAME, tokenize.NUMBER, tokenize.OP)]
+    except (tokenize.TokenError, SyntaxError):
+        return "check brackets and operators"
+    for a, b in zip(tokens, tokens[1:]):
+        if a.type == tokenize.NAME and b.type == tokenize.NAME:
+            return f"two names side by side ({a.string} {b.string}): to give a name a unit, multiply: `{a.string} * {b.string}`"
+        if a.string == ")" and b.type == tokenize.NAME:
+            return f"a unit goes right after a number (`2 cm`); after brackets multiply: `(...) * 1 {b.string}`"
+    if "{" in text:
+        return "placeholders like {leg} only work in elements with `for_each`"
+    return "check brackets and operators; units go right after a number (`2 cm`, `38/30 s`)"
+
+
+_ALLOWED_NODES = (
+    ast.Expression, ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.Compare, ast.IfExp, ast.Call, ast.Name,
+    ast.Attribute, ast.Constant, ast.List, ast.Subscript, ast.Load,
+    ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd, ast.Not, ast.And, ast.Or,
+    ast.Lt, ast.LtE, ast.Gt, ast.GtE, ast.Eq, ast.NotEq,
+)  # fmt: skip
+
+
+def parse(text: str) -> ast.expr:
+    """Parse expression text into a whitelisted Python AST.
+
+    Raises:
+        ExprError: syntax errors (`expression-syntax`) and refused syntax (`forbidden-syntax`).
+    """
+    if not text.strip():
+        raise ExprError("expression-syntax", "the expression is empty", "write a number with a unit, like `2 cm`")
+    code = rewrite(text)
+    try:
+        tree = ast.parse(code, mode="eval")
+    except SyntaxError as exc:
+        raise ExprError("expression-syntax", f"cannot read the expression {text!r}: {exc.msg}", _syntax_hint(text)) from None
+    for node in ast.walk(tree):
+        if not isinstance(node, _ALLOWED_NODES):
+            raise ExprError(
+                "forbidden-syntax",
+                f"{type(node).__name__.lower()} is not allowed in expressions: {text!r}",
+                "expressions may use numbers with units, + - * / ^, comparisons, and/or/not, `a if c else b`, [x, y, z] and the listed functions",
+            )
+        if isinstance(node, ast.Constant) and (isinstance(node.value, bool) or not isinstance(node.value, (int, float))):
+            raise ExprError("forbidden-syntax", f"only numbers may appear literally in {text!r}", "remove the quotes or the text value")
+    return tree.body
+
+
+def referenced_names(value: Any) -> set[str]:
+    """Bare names an expression value mentions (to order parameters); empty if it does not parse."""
+    texts = value if isinstance(value, list) else [value]
+    names: set[str] = set()
+    for text in texts:
+        if isinstance(text, str):
+            try:
+                tree = parse(text)
+            except ExprError:
+                continue
+            names |= {node.id for node in ast.walk(tree) if isinstance(node, ast.Name)}
+    return names
