@@ -51,9 +51,11 @@ def _code_index(function: ast.FunctionDef, *, bound: bool) -> int | None:
 
 def _field_index(cls: ast.ClassDef) -> int | None:
     """The position of a `code: str` field of a dataclass-like class body."""
-    fields = [s for s in cls.body if isinstance(s, ast.AnnAssign) and isinstance(s.target, ast.Name)]
-    for index, item in enumerate(fields):
-        if item.target.id == "code" and ast.unparse(item.annotation) == "str":
+    fields = [
+        (s.target.id, s.annotation) for s in cls.body if isinstance(s, ast.AnnAssign) and isinstance(s.target, ast.Name)
+    ]
+    for index, (name, annotation) in enumerate(fields):
+        if name == "code" and ast.unparse(annotation) == "str":
             return index
     return None
 
@@ -62,7 +64,9 @@ def _field_index(cls: ast.ClassDef) -> int | None:
 class Callables:
     """What each name refers to: a set of code positions (None: takes no code)."""
 
-    by_module: dict[str, dict[str, set[int | None]]] = field(default_factory=lambda: defaultdict(lambda: defaultdict(set)))
+    by_module: dict[str, dict[str, set[int | None]]] = field(
+        default_factory=lambda: defaultdict(lambda: defaultdict(set))
+    )
     by_class: dict[str, dict[str, int | None]] = field(default_factory=lambda: defaultdict(dict))
     anywhere: dict[str, set[int]] = field(default_factory=lambda: defaultdict(set))
 
@@ -142,9 +146,11 @@ class _CodeFinder(ast.NodeVisitor):
         for keyword in node.keywords:
             if keyword.arg == "code":
                 return keyword.value
-        positions = self.positions(node.func) - {None}
+        positions = {index for index in self.positions(node.func) if index is not None}
         if len(positions) > 1:
-            self.scan.unreadable.append(f"{where}: {ast.unparse(node.func)} takes its code at positions {sorted(positions)}")
+            self.scan.unreadable.append(
+                f"{where}: {ast.unparse(node.func)} takes its code at positions {sorted(positions)}"
+            )
             return None
         if not positions:
             return None
@@ -169,7 +175,8 @@ class _CodeFinder(ast.NodeVisitor):
             assigned = [
                 node.value
                 for node in ast.walk(function)
-                if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == expr.id for t in node.targets)
+                if isinstance(node, ast.Assign)
+                and any(isinstance(t, ast.Name) and t.id == expr.id for t in node.targets)
             ]
             if assigned:
                 return set().union(*(self.values(value, where) for value in assigned))
@@ -185,7 +192,9 @@ class _CodeFinder(ast.NodeVisitor):
             assert isinstance(part, ast.FormattedValue)
             placeholder = ast.unparse(part.value)
             if placeholder not in PLACEHOLDER_CHOICES:
-                self.scan.unreadable.append(f"{where}: the f-string code placeholder {{{placeholder}}} has no entry in PLACEHOLDER_CHOICES")
+                self.scan.unreadable.append(
+                    f"{where}: the f-string code placeholder {{{placeholder}}} has no entry in PLACEHOLDER_CHOICES"
+                )
                 return set()
             pieces.append(PLACEHOLDER_CHOICES[placeholder])
         return {"".join(choice) for choice in itertools.product(*pieces)}
@@ -223,7 +232,9 @@ def test_every_raised_code_is_registered() -> None:
 
 
 def test_every_registered_code_is_raised_somewhere() -> None:
-    assert sorted(set(codes.CODES) - set(package_scan().raised)) == [], "dead codes: remove them from quadpipe/core/codes.py"
+    assert sorted(set(codes.CODES) - set(package_scan().raised)) == [], (
+        "dead codes: remove them from quadpipe/core/codes.py"
+    )
 
 
 def test_each_code_is_registered_once_in_kebab_case_with_a_meaning() -> None:
@@ -236,7 +247,7 @@ def test_each_code_is_registered_once_in_kebab_case_with_a_meaning() -> None:
 def test_controller_issue_codes_come_from_the_registry() -> None:
     from quadpipe.controllers.language.validate import ISSUE_CODES
 
-    assert ISSUE_CODES == codes.meanings(ISSUE_CODES)
+    assert codes.meanings(ISSUE_CODES) == ISSUE_CODES
 
 
 def test_committed_errors_page_is_up_to_date() -> None:
@@ -272,6 +283,8 @@ def test_scan_expands_f_string_codes_and_refuses_unknown_placeholders() -> None:
         "def check(kind: str, other: str) -> list[Issue]:\n"
         "    return [Issue(f'unknown-{kind[:-1]}', 'm'), Issue(f'bad-{other}', 'm')]\n"
     )
-    scan = scan_sources({"quadpipe/core/errors.py": (PACKAGE / "core" / "errors.py").read_text(), "quadpipe/x.py": source})
+    scan = scan_sources(
+        {"quadpipe/core/errors.py": (PACKAGE / "core" / "errors.py").read_text(), "quadpipe/x.py": source}
+    )
     assert set(scan.raised) == {"unknown-animal", "unknown-controller", "unknown-scene"}
     assert len(scan.unreadable) == 1 and "{other}" in scan.unreadable[0]
