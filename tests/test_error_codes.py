@@ -60,6 +60,17 @@ def _field_index(cls: ast.ClassDef) -> int | None:
     return None
 
 
+def _code_shaped(expr: ast.expr) -> bool:
+    """Whether an argument reads as a code (a kebab-case string, or a choice of them)."""
+    if isinstance(expr, ast.IfExp):
+        return _code_shaped(expr.body) and _code_shaped(expr.orelse)
+    return (
+        isinstance(expr, ast.Constant)
+        and isinstance(expr.value, str)
+        and CODE_PATTERN.fullmatch(expr.value) is not None
+    )
+
+
 @dataclass
 class Callables:
     """What each name refers to: a set of code positions (None: takes no code)."""
@@ -147,6 +158,8 @@ class _CodeFinder(ast.NodeVisitor):
             if keyword.arg == "code":
                 return keyword.value
         positions = {index for index in self.positions(node.func) if index is not None}
+        if len(positions) > 1:  # a name defined elsewhere with different signatures: where is a code?
+            positions = {index for index in positions if index < len(node.args) and _code_shaped(node.args[index])}
         if len(positions) > 1:
             self.scan.unreadable.append(
                 f"{where}: {ast.unparse(node.func)} takes its code at positions {sorted(positions)}"
@@ -270,9 +283,11 @@ def test_scan_finds_a_code_that_is_not_registered() -> None:
         "    def more(self) -> None:\n"
         "        self.fail(None, 'bogus-beta', 'y')\n"
     )
-    scan = scan_sources({**package_sources(), "quadpipe/bogus.py": helper})
+    # `fail` is defined elsewhere with the code first (expressions) and second (the parsers).
+    caller = "def read(reader: object) -> None:\n    reader.fail(None, 'bogus-gamma', 'a message')\n"
+    scan = scan_sources({**package_sources(), "quadpipe/bogus.py": helper, "quadpipe/caller.py": caller})
     assert scan.unreadable == []
-    assert {"bogus-alpha", "bogus-beta"} <= {code for code in scan.raised if code not in codes.CODES}
+    assert {"bogus-alpha", "bogus-beta", "bogus-gamma"} <= {code for code in scan.raised if code not in codes.CODES}
     assert "quadpipe/bogus.py:6" not in scan.raised["unknown-key"]  # the assignment is not a call...
     assert "quadpipe/bogus.py:7" in scan.raised["unknown-key"]  # ...the call that uses it is
 
