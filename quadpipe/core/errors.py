@@ -13,9 +13,9 @@ bug in quadpipe and keeps its traceback.
 from __future__ import annotations
 
 import difflib
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable
 
 
 @dataclass(frozen=True)
@@ -74,7 +74,7 @@ class QuadpipeError(Exception):
         line: int | None = None,
         column: int | None = None,
         hint: str | None = None,
-    ) -> "QuadpipeError":
+    ) -> QuadpipeError:
         """Build an error with one issue; `file/line/column` are a shortcut for `where`."""
         if where is None and file is not None:
             where = Location(str(file), line, column)
@@ -103,4 +103,3 @@ def did_you_mean(name: str, options: Iterable[str], *, listing: bool = True) -> 
         valid = "valid: " + ", ".join(options)
         hint = f"{hint} ({valid})" if hint else valid
     return hint
-

@@ -20,67 +20,28 @@ from pathlib import Path
 from typing import Iterable, Sequence
 
 from quadpipe.controllers.language.semantics import analyze_controller
+from quadpipe.core import codes
 from quadpipe.core.errors import Issue, QuadpipeError
 
 FORMATS: tuple[str, ...] = ("text", "json", "github")
 """Output formats of `validate_files`."""
 
-ISSUE_CODES: dict[str, str] = {
-    "yaml-syntax": "the file is not valid YAML",
-    "duplicate-key": "a key appears twice in one mapping",
-    "file-unreadable": "the file cannot be read",
-    "file-not-found": "a file named on the command line or in `extends` does not exist",
-    "unknown-controller": "`extends` names no built-in controller",
-    "extends-cycle": "controllers extend each other in a loop",
-    "unknown-key": "a key that does not exist in that place",
-    "missing-key": "a required key is missing",
-    "invalid-value": "a value of the wrong shape (text instead of a list, ...)",
-    "unsupported-schema": "the `schema:` version is not one this quadpipe reads",
-    "unknown-element-type": "an element `type` that does not exist",
-    "duplicate-name": "two elements, or two parameters or tunables, of one file have the same name",
-    "template-name": "an element or a parameter with `for_each` whose name lacks {leg}",
-    "unknown-placeholder": "a {placeholder} that is not {leg} or {pair}, or one of them without `for_each`",
-    "unknown-leg": "a leg or group name that does not exist",
-    "unknown-element": "a reference to an element that does not exist",
-    "bad-override": "an override or state that changes an element's type or name",
-    "name-clash": "a name already taken by a unit, function, role, leg or another name",
-    "bad-name": "a parameter, sensor or cycle name that cannot be used in expressions",
-    "expression-syntax": "an expression that cannot be parsed",
-    "forbidden-syntax": "an expression using syntax that is not allowed",
-    "unknown-name": "an expression using a name that does not exist",
-    "unknown-function": "an expression calling a function that does not exist",
-    "unknown-cycle": "phase() of something that is not a cycle element",
-    "wrong-arguments": "a function called with the wrong number of arguments",
-    "wrong-type": "a value of the wrong kind (a vector where a number is expected, ...)",
-    "wrong-dimension": "a value in the wrong unit (an angle where a time is expected, ...)",
-    "dimension-mismatch": "an expression mixing units that do not go together",
-    "parameter-cycle": "parameters defined in terms of each other in a loop",
-    "unknown-parameter": "a state or override setting a parameter that does not exist",
-    "out-of-range": "a tunable's value (in the file or an override) outside its `min`/`max`",
-    "bad-range": "a tunable whose `min` is above its `max`",
-    "tunable-not-constant": "a tunable that is not a constant number (formulas go in `parameters:`)",
-    "unknown-role": "a role name that does not exist",
-    "glob-matches-nothing": "a role glob that matches no joint",
-    "no-joint": "a spring on the pelvis, which has no joint",
-    "bad-point": "a body point with an unknown anchor (`.tip` instead of `.end`)",
-    "duplicate-point": "the same body point twice in one mapping",
-    "unknown-frame": "a frame that is not heading, world or a role",
-    "direction-kind": "a direction with none or several of vector, toward, balance",
-    "strength-kind": "a strength with both a force and length2",
-    "zero-vector": "a direction vector of length zero",
-    "unused-key": "a key that does nothing in this combination (horizon without balance, ...)",
-    "nothing-to-do": "a segment with neither a direction nor an elastic",
-    "same-point": "a segment whose two ends are the same point",
-    "bad-weights": "reaction weights that are not positive plain numbers",
-    "parallel-axis": "a cycle whose reference is parallel to its axis",
-    "unknown-state": "a state machine naming a state that does not exist",
-    "not-switchable": "a state switching or changing a sensor or state machine",
-    "state-conflict": "an element changed by two state machines",
-    "unused-parameter": "(warning) a parameter no element uses",
-    "unused-sensor": "(warning) a sensor no expression uses",
-    "unreachable-state": "(warning) a state no transition enters",
-}
-"""Every issue code `validate_files` may report, with what it means."""
+ISSUE_CODES: dict[str, str] = codes.meanings(
+    (
+        "yaml-syntax", "duplicate-key", "file-unreadable", "file-not-found", "unknown-controller",
+        "extends-cycle", "unknown-key", "missing-key", "invalid-value", "unsupported-schema",
+        "unknown-element-type", "duplicate-name", "template-name", "unknown-placeholder", "unknown-leg",
+        "unknown-element", "bad-override", "name-clash", "bad-name", "expression-syntax",
+        "forbidden-syntax", "unknown-name", "unknown-function", "unknown-cycle", "wrong-arguments",
+        "wrong-type", "wrong-dimension", "dimension-mismatch", "parameter-cycle", "unknown-parameter",
+        "out-of-range", "bad-range", "tunable-not-constant",
+        "unknown-role", "glob-matches-nothing", "no-joint", "bad-point", "duplicate-point",
+        "unknown-frame", "direction-kind", "strength-kind", "zero-vector", "unused-key", "nothing-to-do",
+        "same-point", "bad-weights", "parallel-axis", "unknown-state", "not-switchable", "state-conflict",
+        "unused-parameter", "unused-sensor", "unreachable-state",
+    )
+)
+"""Every issue code `validate_files` may report, with what it means (from `quadpipe.core.codes`)."""
 
 
 def _display_path(file: str | None) -> str | None:
