@@ -29,18 +29,19 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     import mujoco
 
-    from quadpipe.clip.model import Clip
     from quadpipe.animals.model import BuiltAnimal
-    from quadpipe.world import SceneSpec
+    from quadpipe.clip.model import Clip
     from quadpipe.sim.simulation import Simulation
+    from quadpipe.world import SceneSpec
 
 REPO = Path(__file__).resolve().parent.parent
 """The repository root (commands run there, relative paths resolve there)."""
@@ -153,12 +154,40 @@ class Plan:
     batch_seconds: float
 
 
-FULL = Plan("full", all_pairs=True, repeats=5, controller_seconds=1.0, crowd_sizes=(1, 10, 50, 100), crowd_repeats=3,
-            crowd_seconds=1.0, clip_seconds=10.0, bake_runs=3, startup_runs=10, export_repeats=5,
-            render_repeats=3, render_frames=60, batch_animals=None, batch_seconds=10.0)
-QUICK = Plan("quick", all_pairs=False, repeats=2, controller_seconds=0.1, crowd_sizes=(1, 10), crowd_repeats=2,
-             crowd_seconds=0.1, clip_seconds=2.0, bake_runs=1, startup_runs=3, export_repeats=2,
-             render_repeats=2, render_frames=10, batch_animals=("dog", "cat"), batch_seconds=0.5)
+FULL = Plan(
+    "full",
+    all_pairs=True,
+    repeats=5,
+    controller_seconds=1.0,
+    crowd_sizes=(1, 10, 50, 100),
+    crowd_repeats=3,
+    crowd_seconds=1.0,
+    clip_seconds=10.0,
+    bake_runs=3,
+    startup_runs=10,
+    export_repeats=5,
+    render_repeats=3,
+    render_frames=60,
+    batch_animals=None,
+    batch_seconds=10.0,
+)
+QUICK = Plan(
+    "quick",
+    all_pairs=False,
+    repeats=2,
+    controller_seconds=0.1,
+    crowd_sizes=(1, 10),
+    crowd_repeats=2,
+    crowd_seconds=0.1,
+    clip_seconds=2.0,
+    bake_runs=1,
+    startup_runs=3,
+    export_repeats=2,
+    render_repeats=2,
+    render_frames=10,
+    batch_animals=("dog", "cat"),
+    batch_seconds=0.5,
+)
 
 
 # --------------------------------------------------------------------------- results
@@ -217,9 +246,9 @@ class Context:
 
     plan: Plan
     folder: Path
-    clip: "Clip | None" = None
+    clip: Clip | None = None
 
-    def walk_clip(self) -> "Clip":
+    def walk_clip(self) -> Clip:
         """The dog walk of `plan.clip_seconds` (simulated on first use)."""
         if self.clip is None:
             from quadpipe.sim.simulation import simulate
@@ -255,10 +284,10 @@ class World:
     its damping into the model), so every run, controlled or bare, starts from the same model.
     """
 
-    sim: "Simulation"
+    sim: Simulation
 
     @classmethod
-    def build(cls, scene: "SceneSpec", species: "BuiltAnimal") -> "World":
+    def build(cls, scene: SceneSpec, species: BuiltAnimal) -> World:
         """Build and compile `scene` with `species` for its animals."""
         from quadpipe.sim.simulation import Simulation
         from quadpipe.world import build_scene
@@ -266,12 +295,12 @@ class World:
         return cls(Simulation(build_scene(scene, species)))
 
     @property
-    def model(self) -> "mujoco.MjModel":
+    def model(self) -> mujoco.MjModel:
         """The compiled world."""
         return self.sim.model
 
     @property
-    def data(self) -> "mujoco.MjData":
+    def data(self) -> mujoco.MjData:
         """Its state."""
         return self.sim.data
 
@@ -284,7 +313,7 @@ class World:
         self.sim.use_controller(None)
         self.sim.reset()
 
-    def controlled_run(self, controller: str) -> "Simulation":
+    def controlled_run(self, controller: str) -> Simulation:
         """The simulation from the start under a freshly built runtime of `controller` (as `simulate` builds it)."""
         self.reset()
         compiled, _ = self.sim.compile_controller(controller)
@@ -316,7 +345,7 @@ class World:
         return "fell" if len(placements) == 1 else f"{fallen}/{len(placements)} fell"
 
 
-def step_run(run: "Simulation", steps: int) -> None:
+def step_run(run: Simulation, steps: int) -> None:
     """`steps` steps of a simulation, exactly as the simulation loop takes them."""
     for _ in range(steps):
         run.step()
@@ -347,8 +376,10 @@ def bench_controllers(ctx: Context) -> Section:
     return Section(
         "controller cost per physics step: with it (runtime.apply + mj_step1/2) vs bare mj_step",
         rows,
-        [f"{ctx.plan.controller_seconds:g} s simulated per repetition, {ctx.plan.repeats} repetitions, scene `{BENCH_SCENE}`;"
-         " overhead = with / bare - 1; realtime = simulated s per wall s"],
+        [
+            f"{ctx.plan.controller_seconds:g} s simulated per repetition, {ctx.plan.repeats} repetitions, scene `{BENCH_SCENE}`;"
+            " overhead = with / bare - 1; realtime = simulated s per wall s"
+        ],
     )
 
 
@@ -377,7 +408,7 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
         step_run(world.controlled_run(controller), WARM_UP_STEPS)
         for _ in range(plan.repeats):
             run = world.controlled_run(controller)
-            controlled.append(timed(lambda: step_run(run, steps)))
+            controlled.append(timed(lambda run=run: step_run(run, steps)))
             statuses.append(world.status())
             world.reset()
             bare.append(timed(lambda: world.step_bare(steps)))
@@ -428,8 +459,10 @@ def bench_crowds(ctx: Context) -> Section:
     """Crowds of walking dogs: one world on one thread, two half worlds on two threads or two
     processes, against bare stepping of the whole crowd and of the halves (rollout threads)."""
     rows = []
-    notes = [f"{ctx.plan.crowd_seconds:g} s simulated per repetition, {ctx.plan.crowd_repeats} repetitions;"
-             f" vs_bare = wall time / bare one-world wall time of the same repetition"]
+    notes = [
+        f"{ctx.plan.crowd_seconds:g} s simulated per repetition, {ctx.plan.crowd_repeats} repetitions;"
+        f" vs_bare = wall time / bare one-world wall time of the same repetition"
+    ]
     for count in ctx.plan.crowd_sizes:
         size_rows = crowd_rows(count, ctx)
         rows += size_rows
@@ -479,9 +512,15 @@ def crowd_rows(count: int, ctx: Context) -> list[Row]:
     whole = crowd_world(write_crowd_scene(count, ctx.folder))
     steps = whole.steps(plan.crowd_seconds)
     split = count >= SPLIT_WORLDS and count % SPLIT_WORLDS == 0
-    halves = [crowd_world(write_crowd_scene(count // SPLIT_WORLDS, ctx.folder)) for _ in range(SPLIT_WORLDS)] if split else []
+    halves = (
+        [crowd_world(write_crowd_scene(count // SPLIT_WORLDS, ctx.folder)) for _ in range(SPLIT_WORLDS)]
+        if split
+        else []
+    )
     samples = VariantSamples()
-    workers = WorkerPair(write_crowd_scene(count // SPLIT_WORLDS, ctx.folder), steps, plan.crowd_repeats) if split else None
+    workers = (
+        WorkerPair(write_crowd_scene(count // SPLIT_WORLDS, ctx.folder), steps, plan.crowd_repeats) if split else None
+    )
     try:
         warm_up([whole, *halves])
         if workers is not None:
@@ -497,7 +536,10 @@ def crowd_rows(count: int, ctx: Context) -> list[Row]:
         if workers is not None:
             workers.close()
     simulated = steps * whole.model.opt.timestep
-    return [crowd_row(count, variant, samples, simulated, steps) for variant in (*CONTROLLED_VARIANTS, V_BARE_ONE, V_BARE_ROLLOUT)]
+    return [
+        crowd_row(count, variant, samples, simulated, steps)
+        for variant in (*CONTROLLED_VARIANTS, V_BARE_ONE, V_BARE_ROLLOUT)
+    ]
 
 
 def crowd_row(count: int, variant: str, samples: VariantSamples, simulated: float, steps: int) -> Row:
@@ -557,7 +599,7 @@ def two_threads(worlds: Sequence[World], steps: int) -> tuple[float, str]:
     return wall, worst_status([world.status() for world in worlds])
 
 
-def _step_after(barrier: threading.Barrier, run: "Simulation", steps: int) -> None:
+def _step_after(barrier: threading.Barrier, run: Simulation, steps: int) -> None:
     barrier.wait()
     step_run(run, steps)
 
@@ -595,7 +637,9 @@ class WorkerPair:
         self.barrier = context.Barrier(SPLIT_WORLDS + 1)
         self.results = context.Queue()
         self.processes = [
-            context.Process(target=crowd_worker, args=(str(scene_path), steps, repeats, self.barrier, self.results), daemon=True)
+            context.Process(
+                target=crowd_worker, args=(str(scene_path), steps, repeats, self.barrier, self.results), daemon=True
+            )
             for _ in range(SPLIT_WORLDS)
         ]
         for process in self.processes:
@@ -675,8 +719,18 @@ def bench_bake(ctx: Context) -> Section:
 
     seconds = ctx.plan.clip_seconds
     outputs = [ctx.folder / f"bake{suffix}" for suffix in BAKE_FORMATS]
-    command = [*quadpipe_command(), "bake", "--animal", BAKE_ANIMAL, "--controller", BAKE_CONTROLLER,
-               "--scene", BENCH_SCENE, "--seconds", f"{seconds:g}"]
+    command = [
+        *quadpipe_command(),
+        "bake",
+        "--animal",
+        BAKE_ANIMAL,
+        "--controller",
+        BAKE_CONTROLLER,
+        "--scene",
+        BENCH_SCENE,
+        "--seconds",
+        f"{seconds:g}",
+    ]
     for output in outputs:
         command += ["-o", str(output)]
 
@@ -699,7 +753,7 @@ def bench_bake(ctx: Context) -> Section:
     figures = {
         "command": figure(shell, "s"),
         "in_process": figure(local, "s"),
-        "outside_work": figure([s - l for s, l in zip(shell, local)], "s"),
+        "outside_work": figure([whole - inside for whole, inside in zip(shell, local)], "s"),
     }
     note = "command: the whole bake from the shell, start-up included; in_process: the same simulation and exports in this process"
     return Section("Bake (subprocess)", [Row(labels, figures)], [note])
@@ -741,7 +795,7 @@ def bench_exporters(ctx: Context) -> Section:
     for _ in range(ctx.plan.export_repeats):
         for suffix in list(times):
             try:
-                times[suffix].append(timed(lambda: export_clip(clip, folder / f"clip{suffix}")))
+                times[suffix].append(timed(lambda suffix=suffix: export_clip(clip, folder / f"clip{suffix}")))
             except Exception as exc:  # recorded: the other formats still run
                 errors[suffix] = error_text(exc)
                 del times[suffix]
@@ -770,28 +824,40 @@ def bench_render(ctx: Context) -> Section:
     labels = {"size": f"{RENDER_WIDTH}x{RENDER_HEIGHT}", "frames": ctx.plan.render_frames}
     try:
         labels["backend"] = gl_backend()
-        rates = [render_fps(clip, frames=ctx.plan.render_frames, width=RENDER_WIDTH, height=RENDER_HEIGHT)
-                 for _ in range(ctx.plan.render_repeats)]
+        rates = [
+            render_fps(clip, frames=ctx.plan.render_frames, width=RENDER_WIDTH, height=RENDER_HEIGHT)
+            for _ in range(ctx.plan.render_repeats)
+        ]
     except Exception as exc:  # recorded: no OpenGL here must not stop the other sections
         return Section("Headless render", [Row(labels, status=error_text(exc))])
-    figures = {"fps": figure(rates, "frames/s", "higher"), "realtime": figure([r / clip.fps for r in rates], "x realtime", "higher")}
+    figures = {
+        "fps": figure(rates, "frames/s", "higher"),
+        "realtime": figure([r / clip.fps for r in rates], "x realtime", "higher"),
+    }
     note = f"default overlays, display model built outside the timing; realtime = fps / the clip's {clip.fps:g} fps"
     return Section("Headless render", [Row(labels, figures)], [note])
 
 
 def bench_batch(ctx: Context) -> Section:
     """`quadpipe batch` of animals x every shipped controller to .glb, on 2 workers beside 1."""
-    from quadpipe.core import configs
     from quadpipe.batch import BatchPlan, Outcome, run_batch
+    from quadpipe.core import configs
 
     animals = list(ctx.plan.batch_animals or configs.available("animals"))
     controllers = configs.available("controllers")
-    labels = {"batch": f"{len(animals)} animals x {len(controllers)} controllers, {ctx.plan.batch_seconds:g} s each -> .glb"}
+    labels = {
+        "batch": f"{len(animals)} animals x {len(controllers)} controllers, {ctx.plan.batch_seconds:g} s each -> .glb"
+    }
     walls, outcomes = {}, {}
     try:
         for workers in (2, 1):
-            plan = BatchPlan(animals=animals, controllers=controllers, seconds=ctx.plan.batch_seconds,
-                             formats=["glb"], output=str(ctx.folder / f"batch_j{workers}"))
+            plan = BatchPlan(
+                animals=animals,
+                controllers=controllers,
+                seconds=ctx.plan.batch_seconds,
+                formats=["glb"],
+                output=str(ctx.folder / f"batch_j{workers}"),
+            )
             start = time.perf_counter()
             report = run_batch(plan, workers=workers, force=True, progress=False)
             walls[workers] = time.perf_counter() - start
@@ -874,8 +940,14 @@ def run_benchmarks(plan: Plan, names: Sequence[str]) -> dict[str, Any]:
     from rich.console import Console
 
     console = Console(width=None if sys.stdout.isatty() else PIPE_COLUMNS)
-    report: dict[str, Any] = {"schema": REPORT_SCHEMA, "mode": plan.name, "plan": asdict(plan),
-                              "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "machine": machine_info(), "sections": {}}
+    report: dict[str, Any] = {
+        "schema": REPORT_SCHEMA,
+        "mode": plan.name,
+        "plan": asdict(plan),
+        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "machine": machine_info(),
+        "sections": {},
+    }
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="quadpipe-bench-") as folder:
         ctx = Context(plan, Path(folder))
@@ -950,15 +1022,29 @@ def print_comparison(old: dict[str, Any], new: dict[str, Any]) -> None:
 
     console = Console(width=None if sys.stdout.isatty() else PIPE_COLUMNS)
     before, after = flat_figures(old), flat_figures(new)
-    table = Table(title=f"old ({old['mode']}, {old['started']}) vs new ({new['mode']}, {new['started']})", title_justify="left")
-    for header, justify in (("figure", "left"), ("unit", "left"), ("old", "right"), ("new", "right"), ("new/old", "right"), ("", "left")):
+    table = Table(
+        title=f"old ({old['mode']}, {old['started']}) vs new ({new['mode']}, {new['started']})", title_justify="left"
+    )
+    for header, justify in (
+        ("figure", "left"),
+        ("unit", "left"),
+        ("old", "right"),
+        ("new", "right"),
+        ("new/old", "right"),
+        ("", "left"),
+    ):
         table.add_column(header, justify=justify)
     for key in [k for k in after if k in before]:
         was, now = before[key]["value"], after[key]["value"]
         ratio = now / was if was else math.inf
-        table.add_row(key, after[key]["unit"], number(was), number(now), f"{ratio:.2f}", verdict(ratio, after[key]["better"]))
+        table.add_row(
+            key, after[key]["unit"], number(was), number(now), f"{ratio:.2f}", verdict(ratio, after[key]["better"])
+        )
     console.print(table)
-    for side, keys in (("only in old", [k for k in before if k not in after]), ("only in new", [k for k in after if k not in before])):
+    for side, keys in (
+        ("only in old", [k for k in before if k not in after]),
+        ("only in new", [k for k in after if k not in before]),
+    ):
         if keys:
             console.print(f"{side}: {len(keys)} figures (e.g. {keys[0]})")
     for key in ("cpu", "git_commit", "mujoco"):
@@ -978,11 +1064,23 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """The command line (see the module docstring)."""
     parser = argparse.ArgumentParser(description="quadpipe benchmarks (see benchmarks/README.md).")
     parser.add_argument("--quick", action="store_true", help="a small version of every benchmark (under a minute)")
-    parser.add_argument("--json", type=Path, default=DEFAULT_JSON, help="where to write the results (default out/bench.json)")
-    parser.add_argument("--only", nargs="+", choices=list(SECTIONS), metavar="SECTION",
-                        help=f"run only these sections: {', '.join(SECTIONS)}")
-    parser.add_argument("--compare", nargs="+", type=Path, metavar="JSON",
-                        help="OLD: run, then print old vs new; OLD NEW: compare two reports without running")
+    parser.add_argument(
+        "--json", type=Path, default=DEFAULT_JSON, help="where to write the results (default out/bench.json)"
+    )
+    parser.add_argument(
+        "--only",
+        nargs="+",
+        choices=list(SECTIONS),
+        metavar="SECTION",
+        help=f"run only these sections: {', '.join(SECTIONS)}",
+    )
+    parser.add_argument(
+        "--compare",
+        nargs="+",
+        type=Path,
+        metavar="JSON",
+        help="OLD: run, then print old vs new; OLD NEW: compare two reports without running",
+    )
     args = parser.parse_args(argv)
     if args.compare and len(args.compare) > 2:
         parser.error("--compare takes OLD, or OLD NEW")

@@ -12,7 +12,7 @@ import json
 import sys
 from enum import Enum
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Optional
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -56,7 +56,7 @@ def _version(value: bool) -> None:
 def _main(
     debug: Annotated[bool, typer.Option("--debug", help="Show Python tracebacks on errors.")] = False,
     version: Annotated[
-        Optional[bool], typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")
+        bool | None, typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")
     ] = None,
 ) -> None:
     """Animate quadrupeds by physics alone and bake the motion into clips."""
@@ -68,10 +68,10 @@ SourceArg = Annotated[
     typer.Argument(help="An animal name (dog), an animal config (.yaml) or a skeleton file (.xml, .ma, .bvh)."),
 ]
 LimitsOpt = Annotated[
-    Optional[Path], typer.Option("--limits", help="Joint-limit table for a bare skeleton (default: the thesis's).")
+    Path | None, typer.Option("--limits", help="Joint-limit table for a bare skeleton (default: the thesis's).")
 ]
-RolesOpt = Annotated[Optional[Path], typer.Option("--roles", help="Role map YAML for a skeleton's own bone names.")]
-MassOpt = Annotated[Optional[float], typer.Option("--mass", help="Body mass in kg for a bare skeleton.")]
+RolesOpt = Annotated[Path | None, typer.Option("--roles", help="Role map YAML for a skeleton's own bone names.")]
+MassOpt = Annotated[float | None, typer.Option("--mass", help="Body mass in kg for a bare skeleton.")]
 
 
 def _built(source: str, limits: Path | None, roles: Path | None, mass: float | None):
@@ -96,8 +96,8 @@ def animals(
 
     Example: quadpipe animals --format json
     """
-    from quadpipe.core import configs
     from quadpipe.animals import report
+    from quadpipe.core import configs
 
     rows = [report.animal_row(_built(name, None, None, None)) for name in configs.available("animals")]
     rows.sort(key=lambda row: -row["hp_cm"])
@@ -107,16 +107,27 @@ def animals(
     _print_table(
         "Animals",
         ["name", "HP (cm)", "mass (kg)", "bones", "DOF", "radius (cm)", "step (s)"],
-        [[r["name"], r["hp_cm"], r["mass_kg"], r["bones"], r["dof"], r["radius_cm"], f"1/{round(1 / r['timestep_s'])}"] for r in rows],
+        [
+            [
+                r["name"],
+                r["hp_cm"],
+                r["mass_kg"],
+                r["bones"],
+                r["dof"],
+                r["radius_cm"],
+                f"1/{round(1 / r['timestep_s'])}",
+            ]
+            for r in rows
+        ],
     )
 
 
 @app.command()
 def roles(
     skeleton: Annotated[
-        Optional[Path], typer.Argument(help="A skeleton file (.ma, .bvh, .xml) whose roles to guess.")
+        Path | None, typer.Argument(help="A skeleton file (.ma, .bvh, .xml) whose roles to guess.")
     ] = None,
-    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="Write the guess as a role map YAML.")] = None,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the guess as a role map YAML.")] = None,
 ) -> None:
     """List the 39 roles; with a skeleton file, show (and write) the roles guessed for its joints.
 
@@ -125,15 +136,19 @@ def roles(
     from quadpipe.anatomy.roles import PARENT, ROLES, kind_of
 
     if skeleton is None:
-        _print_table("Roles", ["role", "parent", "kind"], [[role, PARENT[role] or "-", kind_of(role)] for role in ROLES])
+        _print_table(
+            "Roles", ["role", "parent", "kind"], [[role, PARENT[role] or "-", kind_of(role)] for role in ROLES]
+        )
         return
-    from quadpipe.importers import read_raw_skeleton
     from quadpipe.anatomy.rolemap import guess_roles, write_role_map
+    from quadpipe.importers import read_raw_skeleton
 
     raw = read_raw_skeleton(skeleton)
     guess = guess_roles(raw)
     placed = {role: name for name, role in guess.roles.items()}
-    _print_table(f"Roles guessed for {skeleton}", ["role", "joint"], [[role, placed.get(role, "(not placed)")] for role in ROLES])
+    _print_table(
+        f"Roles guessed for {skeleton}", ["role", "joint"], [[role, placed.get(role, "(not placed)")] for role in ROLES]
+    )
     if guess.missing:
         for note in guess.notes:
             typer.echo(f"note: {note}", err=True)
@@ -162,7 +177,9 @@ def convert(
     spec = build_world([Placement(built.animal.name, built)], floor=floor)
     spec.compile()
     write_text(output, spec.to_xml())
-    typer.echo(f"wrote {output} ({built.animal.name}: {len(built.animal.skeleton.bones)} bones, {built.animal.mass_kg:g} kg)")
+    typer.echo(
+        f"wrote {output} ({built.animal.name}: {len(built.animal.skeleton.bones)} bones, {built.animal.mass_kg:g} kg)"
+    )
 
 
 @app.command()
@@ -194,8 +211,16 @@ def inspect(
         "Bones",
         ["role", "name", "parent", "length (cm)", "radius (cm)", "mass (kg)", "DOF", "limits (deg)"],
         [
-            [b["role"], b["name"], b["parent"] or "-", b["length_cm"], b["radius_cm"], b["mass_kg"], b["dof"],
-             "-" if b["limits_deg"] is None else "{:g}..{:g} ±{:g} ±{:g}".format(*b["limits_deg"])]
+            [
+                b["role"],
+                b["name"],
+                b["parent"] or "-",
+                b["length_cm"],
+                b["radius_cm"],
+                b["mass_kg"],
+                b["dof"],
+                "-" if b["limits_deg"] is None else "{:g}..{:g} ±{:g} ±{:g}".format(*b["limits_deg"]),
+            ]
             for b in bones
         ],
     )
@@ -211,8 +236,12 @@ class ValidateFormat(str, Enum):
 
 @app.command()
 def validate(
-    files: Annotated[list[str], typer.Argument(help="Controller files, folders of them, or built-in controller names.")],
-    fmt: Annotated[ValidateFormat, typer.Option("--format", help="text, json, or github (annotations for CI).")] = ValidateFormat.text,
+    files: Annotated[
+        list[str], typer.Argument(help="Controller files, folders of them, or built-in controller names.")
+    ],
+    fmt: Annotated[
+        ValidateFormat, typer.Option("--format", help="text, json, or github (annotations for CI).")
+    ] = ValidateFormat.text,
 ) -> None:
     """Check controller files: syntax, schema, roles, units and references. Exit 1 on any error.
 
@@ -252,15 +281,15 @@ def schema(kind: Annotated[SchemaKind, typer.Argument(help="Which file format.")
 @app.command()
 def controllers(
     name: Annotated[
-        Optional[str], typer.Argument(help="A controller (built-in name or file) whose tunables to show.")
+        str | None, typer.Argument(help="A controller (built-in name or file) whose tunables to show.")
     ] = None,
 ) -> None:
     """List the built-in controllers; given one, show its tunables: value, range and what each changes.
 
     Example: quadpipe controllers walk
     """
-    from quadpipe.core import configs
     from quadpipe.controllers.language import load_controller
+    from quadpipe.core import configs
 
     if name is None:
         rows = [[name, load_controller(name).description] for name in configs.available("controllers")]
@@ -268,8 +297,13 @@ def controllers(
         return
     spec = load_controller(name)
     typer.echo(f"{spec.name}: {spec.description}")
-    rows = [[tunable.name, tunable.value, " to ".join(map(str, tunable.limits)), tunable.description] for tunable in spec.tunables.values()]
-    _print_table(f"Tunables of {spec.name} (set with --set NAME=VALUE)", ["tunable", "value", "range", "description"], rows)
+    rows = [
+        [tunable.name, tunable.value, " to ".join(map(str, tunable.limits)), tunable.description]
+        for tunable in spec.tunables.values()
+    ]
+    _print_table(
+        f"Tunables of {spec.name} (set with --set NAME=VALUE)", ["tunable", "value", "range", "description"], rows
+    )
 
 
 @app.command()
@@ -280,18 +314,32 @@ def scenes() -> None:
     """
     from quadpipe.world import available_scenes, load_scene
 
-    _print_table("Scenes", ["name", "description"], [[name, load_scene(name).description] for name in available_scenes()])
+    _print_table(
+        "Scenes", ["name", "description"], [[name, load_scene(name).description] for name in available_scenes()]
+    )
 
 
 AnimalOpt = Annotated[str, typer.Option("--animal", "-a", help="Animal name or config file.")]
 ControllerOpt = Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")]
 SceneOpt = Annotated[str, typer.Option("--scene", help="Scene name or file: terrain, props, throws, goals.")]
 SecondsOpt = Annotated[float, typer.Option("--seconds", "-s", min=0.0, help="Simulated time.")]
-SetOpt = Annotated[Optional[list[str]], typer.Option("--set", help="Override a controller parameter: NAME=VALUE (repeatable).")]
-MetricsOpt = Annotated[Optional[Path], typer.Option("--metrics", help="Metrics JSON (default: beside the first output).")]
-FpsOpt = Annotated[float, typer.Option("--fps", min=1.0, help="Recorded frames per second; must divide the physics rate (120 for most animals).")]
-GaitReportOpt = Annotated[Optional[Path], typer.Option("--gait-report", help="Also write the gait analysis (as `quadpipe analyze -o`) to this JSON file.")]
-DiagramOpt = Annotated[Optional[Path], typer.Option("--diagram", help="Also draw the footfall (Hildebrand) diagram to this PNG file.")]
+SetOpt = Annotated[
+    list[str] | None, typer.Option("--set", help="Override a controller parameter: NAME=VALUE (repeatable).")
+]
+MetricsOpt = Annotated[Path | None, typer.Option("--metrics", help="Metrics JSON (default: beside the first output).")]
+FpsOpt = Annotated[
+    float,
+    typer.Option(
+        "--fps", min=1.0, help="Recorded frames per second; must divide the physics rate (120 for most animals)."
+    ),
+]
+GaitReportOpt = Annotated[
+    Path | None,
+    typer.Option("--gait-report", help="Also write the gait analysis (as `quadpipe analyze -o`) to this JSON file."),
+]
+DiagramOpt = Annotated[
+    Path | None, typer.Option("--diagram", help="Also draw the footfall (Hildebrand) diagram to this PNG file.")
+]
 
 
 @app.command()
@@ -300,7 +348,9 @@ def simulate(
     controller: ControllerOpt = "rigid",
     scene: SceneOpt = "flat",
     seconds: SecondsOpt = 10.0,
-    output: Annotated[Path, typer.Option("-o", "--output", help="Clip to write (.npz, or any bake format).")] = Path("run.npz"),
+    output: Annotated[Path, typer.Option("-o", "--output", help="Clip to write (.npz, or any bake format).")] = Path(
+        "run.npz"
+    ),
     metrics: MetricsOpt = None,
     parameters: SetOpt = None,
     fps: FpsOpt = FRAME_RATE,
@@ -362,8 +412,14 @@ def _run_and_write(
         check_diagram_path(diagram)
     metrics_path = metrics or outputs[0].with_suffix(METRICS_SUFFIX)
     result = bake(
-        animal, controller, seconds=seconds, outputs=outputs, metrics_path=metrics_path, scene=scene,
-        parameters=_parameters(parameters), fps=fps,
+        animal,
+        controller,
+        seconds=seconds,
+        outputs=outputs,
+        metrics_path=metrics_path,
+        scene=scene,
+        parameters=_parameters(parameters),
+        fps=fps,
     )
     typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
     for name, figures in result.metrics["animals"].items():
@@ -379,16 +435,37 @@ def _run_and_write(
 
 @app.command()
 def batch(
-    plan: Annotated[Optional[Path], typer.Argument(help="A batch plan (.yaml); the options below replace its values.")] = None,
-    animals: Annotated[Optional[list[str]], typer.Option("--animal", "-a", help="Animals: names or files, repeated or comma-separated, or 'all'.")] = None,
-    controllers: Annotated[Optional[list[str]], typer.Option("--controller", "-c", help="Controllers: names or files, or 'all'.")] = None,
-    scenes: Annotated[Optional[list[str]], typer.Option("--scene", help="Scenes: names or files, or 'all' (default: flat).")] = None,
-    seconds: Annotated[Optional[float], typer.Option("--seconds", "-s", help="Simulated time of every job (default: 10).")] = None,
-    formats: Annotated[Optional[list[str]], typer.Option("--format", "-f", help="Formats to write: glb, usdc, bvh, npz... (default: glb).")] = None,
-    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="Folder of the files (default: out/batch).")] = None,
-    workers: Annotated[Optional[int], typer.Option("--workers", "-j", min=1, help="Worker processes (default: one per CPU core).")] = None,
+    plan: Annotated[
+        Path | None, typer.Argument(help="A batch plan (.yaml); the options below replace its values.")
+    ] = None,
+    animals: Annotated[
+        list[str] | None,
+        typer.Option("--animal", "-a", help="Animals: names or files, repeated or comma-separated, or 'all'."),
+    ] = None,
+    controllers: Annotated[
+        list[str] | None, typer.Option("--controller", "-c", help="Controllers: names or files, or 'all'.")
+    ] = None,
+    scenes: Annotated[
+        list[str] | None, typer.Option("--scene", help="Scenes: names or files, or 'all' (default: flat).")
+    ] = None,
+    seconds: Annotated[
+        float | None, typer.Option("--seconds", "-s", help="Simulated time of every job (default: 10).")
+    ] = None,
+    formats: Annotated[
+        list[str] | None,
+        typer.Option("--format", "-f", help="Formats to write: glb, usdc, bvh, npz... (default: glb)."),
+    ] = None,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Folder of the files (default: out/batch).")
+    ] = None,
+    workers: Annotated[
+        int | None, typer.Option("--workers", "-j", min=1, help="Worker processes (default: one per CPU core).")
+    ] = None,
     force: Annotated[bool, typer.Option("--force", help="Redo jobs whose files are all there already.")] = False,
-    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="Run on a Dask cluster: its scheduler's address (tcp://host:8786).")] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option("--scheduler", help="Run on a Dask cluster: its scheduler's address (tcp://host:8786)."),
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars; only the summary.")] = False,
 ) -> None:
     """Bake every animal x controller x scene of a plan in parallel, locally or on a Dask cluster.
@@ -402,7 +479,9 @@ def batch(
 
     from quadpipe.batch import plan_from, run_batch, summary_table
 
-    chosen = plan_from(plan, animals=animals, controllers=controllers, scenes=scenes, seconds=seconds, formats=formats, output=output)
+    chosen = plan_from(
+        plan, animals=animals, controllers=controllers, scenes=scenes, seconds=seconds, formats=formats, output=output
+    )
     report = run_batch(chosen, workers=workers, force=force, scheduler=scheduler, progress=not quiet)
     Console().print(summary_table(report))
     raise typer.Exit(report.exit_code)
@@ -410,7 +489,9 @@ def batch(
 
 @app.command()
 def preview(
-    clip: Annotated[Optional[Path], typer.Argument(help="A baked clip (.npz) to replay; without it, simulate live.")] = None,
+    clip: Annotated[
+        Path | None, typer.Argument(help="A baked clip (.npz) to replay; without it, simulate live.")
+    ] = None,
     animal: AnimalOpt = "dog",
     controller: ControllerOpt = "spine_walk",
     scene: SceneOpt = "flat",
@@ -439,8 +520,10 @@ def preview(
 
 @app.command()
 def render(
-    outputs: Annotated[list[Path], typer.Option("-o", "--output", help="Video or picture: .mp4, .gif, or .png (a contact sheet).")],
-    clip: Annotated[Optional[Path], typer.Argument(help="A baked clip (.npz); without it, simulate first.")] = None,
+    outputs: Annotated[
+        list[Path], typer.Option("-o", "--output", help="Video or picture: .mp4, .gif, or .png (a contact sheet).")
+    ],
+    clip: Annotated[Path | None, typer.Argument(help="A baked clip (.npz); without it, simulate first.")] = None,
     animal: AnimalOpt = "dog",
     controller: ControllerOpt = "spine_walk",
     scene: SceneOpt = "flat",
@@ -463,7 +546,9 @@ def render(
     else:
         from quadpipe.sim.simulation import simulate as run_simulation
 
-        baked = run_simulation(animal, controller, seconds=seconds, scene=scene, parameters=_parameters(parameters)).clip
+        baked = run_simulation(
+            animal, controller, seconds=seconds, scene=scene, parameters=_parameters(parameters)
+        ).clip
     names = [] if overlays == "none" else [name.strip() for name in overlays.split(",") if name.strip()]
     for output in outputs:
         render_clip(baked, output, width=width, height=height, overlays=builtin_overlays(baked, names))
@@ -473,9 +558,11 @@ def render(
 @app.command()
 def analyze(
     clip: Annotated[Path, typer.Argument(help="A baked clip (.npz) from `quadpipe simulate` or `bake`.")],
-    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="Write the report as JSON.")] = None,
-    diagram: Annotated[Optional[Path], typer.Option("--diagram", help="Draw a footfall (Hildebrand) diagram (.png).")] = None,
-    animal: Annotated[Optional[str], typer.Option("--animal", "-a", help="Analyse only this animal of the clip.")] = None,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the report as JSON.")] = None,
+    diagram: Annotated[
+        Path | None, typer.Option("--diagram", help="Draw a footfall (Hildebrand) diagram (.png).")
+    ] = None,
+    animal: Annotated[str | None, typer.Option("--animal", "-a", help="Analyse only this animal of the clip.")] = None,
 ) -> None:
     """Gait analysis of a clip: footfalls, duty factors, phases, stride, speed, Froude number, gait name.
 
@@ -511,7 +598,9 @@ def _parameters(pairs: list[str] | None) -> dict[str, str]:
     for pair in pairs or []:
         name, sep, value = pair.partition("=")
         if not sep or not name.strip():
-            raise QuadpipeError.single("bad-parameter", f"--set {pair!r} is not NAME=VALUE", hint="e.g. --set \"pedal_force=0.2 bw\"")
+            raise QuadpipeError.single(
+                "bad-parameter", f"--set {pair!r} is not NAME=VALUE", hint='e.g. --set "pedal_force=0.2 bw"'
+            )
         result[name.strip()] = value.strip()
     return result
 

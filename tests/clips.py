@@ -82,7 +82,7 @@ def simulate(placements: list[Placement], seconds: float, *, box: bool) -> Clip:
     data = mujoco.MjData(model)
     if box:
         joint = model.joint("crate")
-        data.qvel[joint.dofadr[0]:joint.dofadr[0] + 6] = [*BOX_VELOCITY_M_S, *BOX_SPIN_RAD_S]
+        data.qvel[joint.dofadr[0] : joint.dofadr[0] + 6] = [*BOX_VELOCITY_M_S, *BOX_SPIN_RAD_S]
     recorder = Recorder(model, placements, sizing.FRAME_RATE)
     steps = round(1.0 / (sizing.FRAME_RATE * model.opt.timestep))
     mujoco.mj_forward(model, data)
@@ -95,12 +95,12 @@ def simulate(placements: list[Placement], seconds: float, *, box: bool) -> Clip:
     return recorder.clip({"status": "ok", "scene": "exporter-test", "seed": "0"})
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _dog_clip() -> Clip:
     return simulate([Placement("dog", built_animal("dog"))], CLIP_SECONDS, box=True)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _two_dog_clip() -> Clip:
     dog = built_animal("dog")
     return simulate([Placement("dog", dog), Placement("dog2", dog, SECOND_DOG_XY)], SHORT_CLIP_SECONDS, box=False)

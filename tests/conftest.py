@@ -14,7 +14,7 @@ REPO = Path(__file__).resolve().parent.parent
 FIXTURES = REPO / "tests" / "fixtures"
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def built_animal(name: str):
     """The `BuiltAnimal` of a built-in animal (cached)."""
     from quadpipe.animals.library import load_animal
@@ -37,7 +37,7 @@ def cli():
     return run_cli
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def cached_simulation(
     animal: str, controller: str, seconds: float, scene: str | None = None, parameters: tuple[tuple[str, str], ...] = ()
 ):

@@ -15,12 +15,35 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from quadpipe.analysis import (
+    BAR_COLOUR,
+    DIAGRAM_STRIDES,
+    DIAGRAM_WIDTH_PX,
+    HILDEBRAND_ORDER,
+    PANEL_HEIGHT_PX,
+    ROW_GAP_PX,
+    AnimalGait,
+    GaitReport,
+    analyze_clip,
+    classify_gait,
+    clean_contacts,
+    controller_force_key,
+    controller_power_key,
+    debounce,
+    diagram_panels,
+    diagram_size,
+    draw_footfall_diagram,
+    footfall_diagram_png,
+    format_report,
+    min_run_frames,
+    phase_distance,
+    toe_tips,
+)
 from quadpipe.analysis.footfalls import _runs
-from quadpipe.analysis import AnimalGait, BAR_COLOUR, DIAGRAM_STRIDES, DIAGRAM_WIDTH_PX, GaitReport, HILDEBRAND_ORDER, PANEL_HEIGHT_PX, ROW_GAP_PX, analyze_clip, classify_gait, clean_contacts, controller_force_key, controller_power_key, debounce, diagram_panels, diagram_size, draw_footfall_diagram, footfall_diagram_png, format_report, min_run_frames, phase_distance, toe_tips
 from quadpipe.anatomy.roles import LEGS, PARENT, ROLES, TOE_BONES
+from quadpipe.animals.sizing import GRAVITY, natural_time
 from quadpipe.clip.model import AnimalTrack, Clip
 from quadpipe.core.errors import QuadpipeError
-from quadpipe.animals.sizing import GRAVITY, natural_time
 
 FPS = 30.0
 PERIOD_S = 0.95
@@ -47,8 +70,13 @@ def foot_down(phase: float, duty: float, frames: int, period_s: float = PERIOD_S
 
 
 def synthetic_track(
-    phases: dict[str, float], duty: float | dict[str, float], *, name: str = "dog", seconds: float = SECONDS,
-    drift_m_s: dict[str, float] | None = None, contacts: np.ndarray | None = None,
+    phases: dict[str, float],
+    duty: float | dict[str, float],
+    *,
+    name: str = "dog",
+    seconds: float = SECONDS,
+    drift_m_s: dict[str, float] | None = None,
+    contacts: np.ndarray | None = None,
 ) -> AnimalTrack:
     """A dog-sized track moving at `SPEED_M_S` along +x with the given footfalls.
 
@@ -66,7 +94,9 @@ def synthetic_track(
     body = np.stack([SPEED_M_S * times, np.zeros(frames), np.full(frames, HP_M)], axis=1)
     positions = np.repeat(body[:, None, :], len(ROLES), axis=1)
     for index, leg in enumerate(LEGS):
-        positions[:, ROLES.index(TOE_BONES[leg])] = _toe_path(body, down[:, index], HIP_OFFSET[leg], (drift_m_s or {}).get(leg, 0.0))
+        positions[:, ROLES.index(TOE_BONES[leg])] = _toe_path(
+            body, down[:, index], HIP_OFFSET[leg], (drift_m_s or {}).get(leg, 0.0)
+        )
     rest_start = np.zeros((len(ROLES), 3))
     rest_end = np.zeros((len(ROLES), 3))
     for bone in TOE_BONES.values():
@@ -74,10 +104,17 @@ def synthetic_track(
     rotations = np.zeros((frames, len(ROLES), 4))
     rotations[..., 0] = 1.0
     return AnimalTrack(
-        name=name, species="dog", roles=ROLES,
+        name=name,
+        species="dog",
+        roles=ROLES,
         parents=np.array([ROLES.index(PARENT[r]) if PARENT[r] else -1 for r in ROLES]),
-        rest_start=rest_start, rest_end=rest_end, shapes=[[] for _ in ROLES],
-        positions=positions, rotations=rotations, pelvis_height=HP_M, mass_kg=MASS_KG,
+        rest_start=rest_start,
+        rest_end=rest_end,
+        shapes=[[] for _ in ROLES],
+        positions=positions,
+        rotations=rotations,
+        pelvis_height=HP_M,
+        mass_kg=MASS_KG,
         foot_contacts=down if contacts is None else contacts,
     )
 
@@ -188,6 +225,7 @@ def test_classification_tolerates_small_phase_errors_and_rejects_large_ones():
 
 # --- Debouncing -------------------------------------------------------------------------------
 
+
 def test_debounce_removes_one_frame_gaps_and_contacts():
     raw = np.array([0, 0, 1, 0, 0, 1, 1, 1, 0, 1, 1, 1, 0, 0], dtype=bool)
     expected = np.array([0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 0, 0], dtype=bool)
@@ -221,7 +259,7 @@ def test_a_short_scuff_during_the_swing_is_not_a_footfall():
     lh = LEGS.index("lh")
     swing_starts = np.flatnonzero(np.diff(contacts[:, lh].astype(int)) == -1) + 1
     for start in swing_starts[:-1]:
-        contacts[start + 2:start + 5, lh] = True  # three frames: longer than a flicker
+        contacts[start + 2 : start + 5, lh] = True  # three frames: longer than a flicker
     scuffed = analyse(LS_WALK, 0.7, contacts=contacts)
     assert scuffed.stride_frames == reference.stride_frames
     assert scuffed.stride_period_s == reference.stride_period_s
@@ -235,10 +273,12 @@ def test_a_foot_bouncing_inside_its_stance_makes_one_footfall():
     lh = LEGS.index("lh")
     touchdowns = np.flatnonzero(np.diff(contacts[:, lh].astype(int)) == 1) + 1
     for touchdown in touchdowns:
-        contacts[touchdown + 3:touchdown + 6, lh] = False  # a three-frame hop: longer than a flicker
+        contacts[touchdown + 3 : touchdown + 6, lh] = False  # a three-frame hop: longer than a flicker
     bounced = analyse(LS_WALK, 0.7, contacts=contacts)
     assert bounced.stride_frames == reference.stride_frames
-    assert [f.touchdown_frame for f in bounced.legs["lh"].footfalls] == [f.touchdown_frame for f in reference.legs["lh"].footfalls]
+    assert [f.touchdown_frame for f in bounced.legs["lh"].footfalls] == [
+        f.touchdown_frame for f in reference.legs["lh"].footfalls
+    ]
     for leg in LEGS:
         assert bounced.legs[leg].phase == pytest.approx(reference.legs[leg].phase, abs=1e-12), leg
     assert bounced.gait.label == "lateral-sequence walk"
@@ -259,6 +299,7 @@ def test_a_first_touch_before_a_hop_starts_the_stance():
 
 
 # --- Slip ---------------------------------------------------------------------------------------
+
 
 def test_planted_feet_do_not_slip():
     gait = analyse(LS_WALK, 0.7)
@@ -284,10 +325,13 @@ def test_toe_tips_rotate_with_the_last_phalanx():
     half_turn_about_z = np.array([0.0, 0.0, 0.0, 1.0])
     track.rotations[:, bone] = half_turn_about_z
     tips = toe_tips(track)["lf"]
-    np.testing.assert_allclose(tips - track.positions[:, bone], np.tile([-0.03, 0.0, -0.04], (len(tips), 1)), atol=1e-12)
+    np.testing.assert_allclose(
+        tips - track.positions[:, bone], np.tile([-0.03, 0.0, -0.04], (len(tips), 1)), atol=1e-12
+    )
 
 
 # --- Several animals, controller sensors, broken clips, JSON --------------------------------------
+
 
 def test_each_animal_of_a_clip_is_analysed_on_its_own():
     clip = synthetic_clip(synthetic_track(*GAITS["trot"], name="dog"), synthetic_track(*GAITS["pace"], name="dog2"))
@@ -354,6 +398,7 @@ def test_the_report_is_strict_json_with_every_figure():
 
 # --- Footfall diagram ------------------------------------------------------------------------------
 
+
 def diagram_pixels(report: GaitReport) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(footfall_diagram_png(report))).convert("RGB"))
 
@@ -381,7 +426,7 @@ def test_each_row_of_the_diagram_shows_its_foots_stances():
         for frame in frames:
             if down[frame - 1] == down[frame] == down[frame + 1]:
                 assert is_bar[middle, round(panel.x_of(frame / FPS))] == down[frame], (leg, frame)
-        assert is_bar[top:bottom + 1].any(axis=0).sum() > 0.2 * (panel.right - panel.left), leg
+        assert is_bar[top : bottom + 1].any(axis=0).sum() > 0.2 * (panel.right - panel.left), leg
         between = panel.row_band(row)[1] + ROW_GAP_PX // 2
         assert not is_bar[between].any(), leg
 
@@ -412,7 +457,7 @@ SPINE_WALK_PERIOD_S = 38 / 30
 """The spine_walk controller's gait cycle for the dog (configs/controllers/spine_walk.yaml)."""
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def simulated_walk() -> GaitReport:
     from quadpipe.sim.simulation import simulate
 
@@ -441,9 +486,24 @@ def test_a_higher_frame_rate_records_the_same_motion_more_often():
 
 
 def test_a_frame_rate_that_does_not_divide_the_physics_rate_is_refused_before_anything_is_written(cli, tmp_path):
-    result = cli("simulate", "--animal", "dog", "--controller", "walk", "--seconds", "1", "--fps", "50", "-o", str(tmp_path / "walk.npz"))
+    result = cli(
+        "simulate",
+        "--animal",
+        "dog",
+        "--controller",
+        "walk",
+        "--seconds",
+        "1",
+        "--fps",
+        "50",
+        "-o",
+        str(tmp_path / "walk.npz"),
+    )
     assert result.returncode == 1 and "Traceback" not in result.stderr
-    assert "error bad-fps: 50 frames per second does not divide this simulation's 120 physics steps per second" in result.stderr
+    assert (
+        "error bad-fps: 50 frames per second does not divide this simulation's 120 physics steps per second"
+        in result.stderr
+    )
     assert "record at one of 10, 12, 15, 20, 24, 30, 40, 60, 120 fps" in result.stderr
     assert list(tmp_path.iterdir()) == []
 
@@ -452,8 +512,23 @@ def test_bake_writes_the_gait_report_and_diagram_of_its_clip(cli, tmp_path):
     from quadpipe.exporters.npz import load_clip
 
     clip, report, diagram = tmp_path / "rat.npz", tmp_path / "rat.gait.json", tmp_path / "rat.png"
-    result = cli("bake", "--animal", "rat", "--controller", "walk", "--seconds", "4", "--fps", "120",
-                 "-o", str(clip), "--gait-report", str(report), "--diagram", str(diagram))
+    result = cli(
+        "bake",
+        "--animal",
+        "rat",
+        "--controller",
+        "walk",
+        "--seconds",
+        "4",
+        "--fps",
+        "120",
+        "-o",
+        str(clip),
+        "--gait-report",
+        str(report),
+        "--diagram",
+        str(diagram),
+    )
     assert result.returncode == 0, result.stderr
     written = json.loads(report.read_text())
     expected = analyze_clip(load_clip(clip))
@@ -464,6 +539,16 @@ def test_bake_writes_the_gait_report_and_diagram_of_its_clip(cli, tmp_path):
 
 
 def test_a_wrong_diagram_suffix_is_refused_before_simulating(cli, tmp_path):
-    result = cli("simulate", "--animal", "dog", "--seconds", "30", "-o", str(tmp_path / "run.npz"), "--diagram", str(tmp_path / "d.jpg"))
+    result = cli(
+        "simulate",
+        "--animal",
+        "dog",
+        "--seconds",
+        "30",
+        "-o",
+        str(tmp_path / "run.npz"),
+        "--diagram",
+        str(tmp_path / "d.jpg"),
+    )
     assert result.returncode == 1 and "error unsupported-diagram-format" in result.stderr
     assert list(tmp_path.iterdir()) == []

@@ -10,16 +10,16 @@ import functools
 import importlib.util
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import pytest
 
-from quadpipe.core import configs
 from quadpipe.anatomy.roles import FRONT_CHAIN, HIND_CHAIN, LEGS, NECK, ROLES, SPINE, TAIL
-from quadpipe.animals.library import Animal, load_animal
 from quadpipe.anatomy.skeleton import Bone, Skeleton
+from quadpipe.animals.library import Animal, load_animal
+from quadpipe.core import configs
 
 REPO = Path(__file__).resolve().parent.parent
 GENERATOR = REPO / "tools" / "make_skeletons.py"
@@ -52,7 +52,7 @@ FIG7_PARTS = {
 AXIAL_TO_NOSE = ("pelvis", *SPINE, "thorax", *NECK, "head")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def animal(name: str) -> Animal:
     """A library animal, loaded once per session."""
     return load_animal(name)
@@ -228,7 +228,9 @@ def check_rat() -> None:
 def check_dog() -> None:
     """The thesis's Fig. 7: capsule parts' (sum L + n 4/3 r) in proportion to their masses."""
     radius = hp("dog") / 75.0 + 0.001
-    amounts = {part: sum(bone("dog", r).length + 4.0 / 3.0 * radius for r in roles) for part, roles in FIG7_PARTS.items()}
+    amounts = {
+        part: sum(bone("dog", r).length + 4.0 / 3.0 * radius for r in roles) for part, roles in FIG7_PARTS.items()
+    }
     total_amount, total_mass = sum(amounts.values()), sum(FIG7_PART_MASSES.values())
     for part, amount in amounts.items():
         ratio = (amount / total_amount) / (FIG7_PART_MASSES[part] / total_mass)
@@ -259,8 +261,12 @@ def scaled_dog(name: str) -> Animal:
     """The dog's skeleton scaled to another animal's HP, posing as that animal."""
     dog, real = load_animal("dog"), load_animal(name)
     factor = real.pelvis_height / dog.pelvis_height
-    bones = {role: Bone(role, b.name, b.start * factor, b.end * factor, b.axis) for role, b in dog.skeleton.bones.items()}
-    return Animal(name, Skeleton(name, dog.skeleton.source, bones), dog.limits, real.pelvis_height, real.mass_kg, dog.source)
+    bones = {
+        role: Bone(role, b.name, b.start * factor, b.end * factor, b.axis) for role, b in dog.skeleton.bones.items()
+    }
+    return Animal(
+        name, Skeleton(name, dog.skeleton.source, bones), dog.limits, real.pelvis_height, real.mass_kg, dog.source
+    )
 
 
 @pytest.mark.parametrize("name", sorted(set(SPECIES_CHECKS) - {"dog"}))

@@ -114,7 +114,11 @@ def test_the_import_graph_has_no_cycle() -> None:
 
 
 def test_every_module_is_in_a_layer_and_not_too_long() -> None:
-    too_long = {n: len(p.read_text().splitlines()) for n, p in modules().items() if len(p.read_text().splitlines()) > MAX_MODULE_LINES}
+    too_long = {
+        n: len(p.read_text().splitlines())
+        for n, p in modules().items()
+        if len(p.read_text().splitlines()) > MAX_MODULE_LINES
+    }
     for name in modules():
         layer_of(name)
     assert not too_long, f"modules over {MAX_MODULE_LINES} lines, split them: {too_long}"

@@ -14,7 +14,6 @@ from pathlib import Path
 import pytest
 from rich.console import Console
 
-from quadpipe.core import configs
 from quadpipe.batch import (
     BatchPlan,
     Job,
@@ -27,6 +26,7 @@ from quadpipe.batch import (
     run_job,
     summary_table,
 )
+from quadpipe.core import configs
 from quadpipe.core.errors import QuadpipeError
 from tests.conftest import FIXTURES, REPO
 
@@ -50,7 +50,10 @@ def listing(folder: Path) -> list[str]:
 
 
 def test_plan_is_the_cross_product_in_order_with_overrides_applied(tmp_path):
-    plan = load_plan(write_plan(tmp_path, """
+    plan = load_plan(
+        write_plan(
+            tmp_path,
+            """
 animals: [dog, horse]
 controllers: [rigid, spine_walk]
 scenes: [flat, hill, stairs]
@@ -66,10 +69,17 @@ overrides:
   - animal: horse
     scene: hill
     seconds: 8
-"""))
+""",
+        )
+    )
     jobs = expand_jobs(plan)
     assert len(jobs) == 2 * 2 * 3
-    assert [job.name for job in jobs[:4]] == ["dog_rigid_flat", "dog_rigid_hill", "dog_rigid_stairs", "dog_spine_walk_flat"]
+    assert [job.name for job in jobs[:4]] == [
+        "dog_rigid_flat",
+        "dog_rigid_hill",
+        "dog_rigid_stairs",
+        "dog_spine_walk_flat",
+    ]
     by_name = {job.name: job for job in jobs}
     assert by_name["dog_rigid_flat"].seconds == 4 and by_name["dog_rigid_hill"].seconds == 6
     assert by_name["horse_rigid_hill"].seconds == 8 and by_name["horse_spine_walk_hill"].seconds == 8
@@ -77,8 +87,10 @@ overrides:
     assert by_name["dog_spine_walk_flat"].parameters == () and by_name["horse_rigid_flat"].parameters == ()
     job = by_name["dog_rigid_flat"]
     assert job.formats == ("glb", "usdc")
-    assert job.files == [Path.cwd() / "baked" / name for name in
-                         ("dog_rigid_flat.glb", "dog_rigid_flat.usdc", "dog_rigid_flat.metrics.json")]
+    assert job.files == [
+        Path.cwd() / "baked" / name
+        for name in ("dog_rigid_flat.glb", "dog_rigid_flat.usdc", "dog_rigid_flat.metrics.json")
+    ]
 
 
 def test_all_means_every_builtin_and_files_are_named_by_their_stem():
@@ -110,7 +122,12 @@ def test_the_example_plans_are_valid():
         ("animals: [dog]\ncontrollers: [rigid]\nseconds: -2\n", "invalid-value", 3, 10),
         ("animals: [dog, all]\ncontrollers: [rigid]\n", "invalid-value", 1, 10),
         ("animals: []\ncontrollers: [rigid]\n", "invalid-value", 1, 10),
-        ("animals: [dog]\ncontrollers: [rigid]\noverrides:\n  - animal: hrse\n    seconds: 2\n", "override-selects-nothing", 4, 13),
+        (
+            "animals: [dog]\ncontrollers: [rigid]\noverrides:\n  - animal: hrse\n    seconds: 2\n",
+            "override-selects-nothing",
+            4,
+            13,
+        ),
         ("animals: [dog]\ncontrollers: [rigid]\noverrides:\n  - scene: flat\n    secs: 2\n", "unknown-key", 5, 5),
         ("animals: [dog]\ncontrollers: [rigid]\nanimals: [cat]\n", "duplicate-key", 3, 1),
     ],
@@ -151,7 +168,9 @@ def test_two_configs_with_the_same_stem_are_refused(tmp_path):
     for folder in ("a", "b"):
         (tmp_path / folder).mkdir()
         (tmp_path / folder / "walk.yaml").write_text("")
-    plan = BatchPlan(animals=["dog"], controllers=[str(tmp_path / "a" / "walk.yaml"), str(tmp_path / "b" / "walk.yaml")])
+    plan = BatchPlan(
+        animals=["dog"], controllers=[str(tmp_path / "a" / "walk.yaml"), str(tmp_path / "b" / "walk.yaml")]
+    )
     with pytest.raises(QuadpipeError) as caught:
         expand_jobs(plan)
     assert caught.value.issues[0].code == "duplicate-job" and "dog_walk_flat" in caught.value.format()
@@ -165,8 +184,11 @@ def batch(tmp_path_factory):
     """One parallel batch: a good job, a controller that blows up, an unknown controller."""
     folder = tmp_path_factory.mktemp("batch") / "out"
     plan = BatchPlan(
-        animals=["dog"], controllers=["rigid", EXPLODE, "no_such_controller"], seconds=SECONDS,
-        formats=["glb", "npz"], output=str(folder),
+        animals=["dog"],
+        controllers=["rigid", EXPLODE, "no_such_controller"],
+        seconds=SECONDS,
+        formats=["glb", "npz"],
+        output=str(folder),
     )
     return plan, folder, run_batch(plan, workers=2, progress=False)
 
@@ -290,7 +312,9 @@ def test_dask_alone_and_local_runs_write_the_same_bytes(tmp_path):
         n_workers=2, processes=True, threads_per_worker=1, host="127.0.0.1", dashboard_address=None
     ) as cluster:
         remote = run_batch(
-            plan.model_copy(update={"output": str(tmp_path / "dask")}), scheduler=cluster.scheduler_address, progress=False
+            plan.model_copy(update={"output": str(tmp_path / "dask")}),
+            scheduler=cluster.scheduler_address,
+            progress=False,
         )
     alone_job = expand_jobs(plan.model_copy(update={"output": str(tmp_path / "alone")}))[1]
     (tmp_path / "alone").mkdir()

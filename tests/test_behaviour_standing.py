@@ -110,7 +110,9 @@ def _bone_end(track, role: str) -> np.ndarray:
     """World position of a bone's far end in every frame, (F, 3)."""
     index = roles.ROLES.index(role)
     offset = track.rest_end[index] - track.rest_start[index]
-    return track.positions[:, index] + _rotate(track.rotations[:, index], np.broadcast_to(offset, track.positions[:, index].shape))
+    return track.positions[:, index] + _rotate(
+        track.rotations[:, index], np.broadcast_to(offset, track.positions[:, index].shape)
+    )
 
 
 def _joint(track, role: str) -> np.ndarray:
@@ -167,7 +169,9 @@ def test_a_side_push_makes_rigid_slide_without_falling() -> None:
     start = _frame(PUSH_START_S)
     tips = _foot_tips(track)
     sideways = (tips[:, :, 1] - tips[start, :, 1]) / hp
-    assert np.abs(sideways[_frame(PUSH_START_S / 2) : start]).max() < STILL_FEET_HP, "the feet stand still before the push"
+    assert np.abs(sideways[_frame(PUSH_START_S / 2) : start]).max() < STILL_FEET_HP, (
+        "the feet stand still before the push"
+    )
     assert sideways[-1].min() > SLIDE_HP, "every foot slid sideways, the way it was pushed"
     assert tips[start:, :, 2].max() / hp < FOOT_LIFT_HP, "the feet slid along the ground"
     heights = _joint(track, "pelvis")[:, 2]

@@ -7,7 +7,6 @@ heights (HP). The simulations are deterministic and cached, so each one runs onc
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 
@@ -174,4 +173,8 @@ def test_only_supporting_legs_push(leg: str):
     assert f"{leg}_stance_push" in machine.owned
     for state in (f"{leg}_seek", f"{leg}_land"):
         assert machine.states[state].elements[f"{leg}_stance_push"].enabled is False
-    assert all(f"{leg}_stance_push" not in machine.states[state].elements for state in machine.states if not state.startswith(leg))
+    assert all(
+        f"{leg}_stance_push" not in machine.states[state].elements
+        for state in machine.states
+        if not state.startswith(leg)
+    )

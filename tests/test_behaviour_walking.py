@@ -19,7 +19,7 @@ MIN_PELVIS_HP = 0.8
 UPRIGHT_DEG = 30.0
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def walk(animal: str):
     return simulate(animal, "spine_walk", seconds=WALK_SECONDS)
 

@@ -72,8 +72,13 @@ def report(value: float, *, commit: str = "abc", mode: str = "quick") -> dict:
     figure = {"value": value, "unit": "us/step", "better": "lower", "samples": [value]}
     row = {"labels": {"animal": "dog", "controller": "rigid"}, "figures": {"with": figure}, "status": "ok"}
     section = {"title": "t", "rows": [row], "notes": [], "wall_s": 1.0}
-    return {"schema": 1, "mode": mode, "started": "now", "machine": {"cpu": "x", "git_commit": commit},
-            "sections": {"controllers": section}}
+    return {
+        "schema": 1,
+        "mode": mode,
+        "started": "now",
+        "machine": {"cpu": "x", "git_commit": commit},
+        "sections": {"controllers": section},
+    }
 
 
 def test_compare_prints_new_over_old_ratios_and_verdicts(tmp_path: Path):

@@ -90,9 +90,9 @@ def test_a_failed_convert_leaves_no_file(cli, tmp_path):
 
 
 def test_help_of_every_command_has_an_example(cli):
-    from quadpipe.cli import app
-
     import typer.main
+
+    from quadpipe.cli import app
 
     group = typer.main.get_group(app)
     for name in group.commands:

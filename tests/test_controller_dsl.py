@@ -16,17 +16,28 @@ from quadpipe.controllers.language import (
     compile_quantity,
     controller_json_schema,
     load_controller,
+    reference,
     render_docs,
     scale_for_animals,
     validate_files,
 )
-from quadpipe.quantities import expressions
-from quadpipe.controllers.language import reference
-from quadpipe.controllers.language.schema import ANGLE, ANGULAR_STIFFNESS, CONDITION, ControllerFile, DIRECTION, ELEMENT_TYPES, FORCE, LENGTH, LENGTH2_FACTOR, POINT, TIME
-from quadpipe.quantities import units
-from quadpipe.quantities.units import STANDARD_GRAVITY
+from quadpipe.controllers.language.schema import (
+    ANGLE,
+    ANGULAR_STIFFNESS,
+    CONDITION,
+    DIRECTION,
+    ELEMENT_TYPES,
+    FORCE,
+    LENGTH,
+    LENGTH2_FACTOR,
+    POINT,
+    TIME,
+    ControllerFile,
+)
 from quadpipe.controllers.language.validate import ISSUE_CODES
 from quadpipe.core.errors import QuadpipeError
+from quadpipe.quantities import expressions, units
+from quadpipe.quantities.units import STANDARD_GRAVITY
 
 REPO = Path(__file__).resolve().parent.parent
 SHIPPED = REPO / "configs" / "controllers"
@@ -156,7 +167,13 @@ def test_points_sensors_phases_and_contacts_read_the_env_for_every_animal(two_an
     namespace = expressions.Namespace(sensors={"ground": expressions.Type(expressions.VECTOR)}, cycles={"pedal"})
     text = "norm(lf.foot - lf.top) * (1 if contact(lf) and phase(pedal) < 0.5 else 0) + dot(ground, [0, 0, 1 m])"
     compiled = compile_quantity(text, two_animals, LENGTH, namespace)
-    assert compiled.needs == {"point:lf_fpha1.end", "point:lf_scapula.start", "contact:lf", "phase:pedal", "sensor:ground"}
+    assert compiled.needs == {
+        "point:lf_fpha1.end",
+        "point:lf_scapula.start",
+        "contact:lf",
+        "phase:pedal",
+        "sensor:ground",
+    }
     env = {
         "point:lf_fpha1.end": np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
         "point:lf_scapula.start": np.array([[0.0, 0.0, 0.5], [0.0, 0.0, 0.02]]),
@@ -204,7 +221,12 @@ def test_shipped_controllers_point_editors_at_the_schema(name: str) -> None:
 def test_rigid_has_the_thesis_segments_in_quadpipe_axes() -> None:
     spec = load_controller("rigid")
     directions = {name: element.direction.vector for name, element in spec.elements.items()}
-    assert directions == {"tail": [-1, 0, -1], "spine": [1, 0, 0], "neck": [1, 0, 1], **{f"{leg}_leg": None for leg in roles.LEGS}}
+    assert directions == {
+        "tail": [-1, 0, -1],
+        "spine": [1, 0, 0],
+        "neck": [1, 0, 1],
+        **{f"{leg}_leg": None for leg in roles.LEGS},
+    }
     tops = {leg: f"{leg}_scapula.start" if leg.endswith("f") else f"{leg}_hip.start" for leg in roles.LEGS}
     assert {leg: spec.elements[f"{leg}_leg"].direction.balance for leg in roles.LEGS} == tops
     assert (spec.elements["lf_leg"].from_, spec.elements["lf_leg"].to) == ("lf_scapula.start", "lf_fpha1.end")
@@ -247,14 +269,15 @@ def test_postures_states_set_the_thesis_leg_ratios(two_animals: Scale) -> None:
     assert machine.initial == "standing"
     assert set(machine.owned) == {f"{leg}_leg" for leg in roles.LEGS}
     ratios = {
-        state: (machine.states[state].elements["lh_leg"].value("elastic", "ratio").constant[0], machine.states[state].elements["lf_leg"].value("elastic", "ratio").constant[0])
+        state: (
+            machine.states[state].elements["lh_leg"].value("elastic", "ratio").constant[0],
+            machine.states[state].elements["lf_leg"].value("elastic", "ratio").constant[0],
+        )
         for state in machine.states
     }
     assert ratios == {"standing": (1.3, 1.3), "sitting": (0.5, 1.3), "lying": (0.5, 0.5)}
     hold = [transition.after.constant[0] for transition in machine.transitions]
     assert hold == [3.0, 3.0, 3.0]
-
-
 
 
 def test_leash_legs_switch_between_support_and_seek() -> None:
@@ -275,7 +298,11 @@ def test_leash_legs_switch_between_support_and_seek() -> None:
     assert "rh_length" not in machine.states["rh_land"].elements
     assert machine.transitions[3].when == "rh_tilt > seek_angle and rh_rank >= most_tilted"
     assert "pelvis" not in spec.elements["trunk_springs"].joints
-    assert spec.elements["toe_springs"].joints == [f"{leg}_{toe}" for leg in roles.LEGS for toe in (("fpha0", "fpha1") if leg.endswith("f") else ("hpha0", "hpha1", "hpha2"))]
+    assert spec.elements["toe_springs"].joints == [
+        f"{leg}_{toe}"
+        for leg in roles.LEGS
+        for toe in (("fpha0", "fpha1") if leg.endswith("f") else ("hpha0", "hpha1", "hpha2"))
+    ]
 
 
 def test_leg_by_leg_removes_the_leash_and_pushes_while_supporting() -> None:
@@ -300,7 +327,10 @@ def test_spine_walk_pedals_rudder_and_slope(two_animals: Scale) -> None:
     assert [rudder.value("reaction", p).constant[0] for p in ("thorax.mid", "pelvis.mid")] == [0.5, 0.5]
     slope = compiled.elements["slope"].value("strength")
     uphill_10_deg = np.array([-np.sin(np.radians(10)), 0.0, np.cos(np.radians(10))])
-    env = {"sensor:ground_normal": np.stack([uphill_10_deg, uphill_10_deg * [-1, 1, 1]]), expressions.HEADING_FRAME_KEY: np.stack([np.eye(3)] * 2)}
+    env = {
+        "sensor:ground_normal": np.stack([uphill_10_deg, uphill_10_deg * [-1, 1, 1]]),
+        expressions.HEADING_FRAME_KEY: np.stack([np.eye(3)] * 2),
+    }
     strengths = slope(env) / two_animals.bw
     assert strengths == pytest.approx([np.sin(np.radians(10)), -np.sin(np.radians(10))])
 
@@ -378,7 +408,11 @@ def write_knobs(folder: Path, text: str = KNOBS) -> Path:
 
 def test_for_each_makes_one_parameter_per_leg_with_leg_and_pair_replaced(tmp_path: Path, two_animals: Scale) -> None:
     spec = load_controller(write_knobs(tmp_path))
-    assert {name: (p.value, p.description) for name, p in spec.parameters.items() if name.endswith("_ratio") and "_" in name[:3]} == {
+    assert {
+        name: (p.value, p.description)
+        for name, p in spec.parameters.items()
+        if name.endswith("_ratio") and "_" in name[:3]
+    } == {
         "lf_ratio": ("front_ratio", "Length of lf."),
         "rf_ratio": ("front_ratio", "Length of rf."),
         "lh_ratio": ("hind_ratio", "Length of lh."),
@@ -419,7 +453,9 @@ def test_a_tunable_can_be_overridden_within_its_range(tmp_path: Path, two_animal
     assert spec.parameters["hold"].value == "3 bw/HP" and spec.parameters["hold"].limits == (0, "4 bw/HP")
     compiled = compile_controller(spec, two_animals)
     assert compiled.elements["lh_leg"].value("elastic", "ratio").constant == pytest.approx([0.9, 0.9])
-    assert compiled.elements["lf_leg"].value("elastic", "stiffness").constant == pytest.approx(3 * two_animals.bw / two_animals.hp)
+    assert compiled.elements["lf_leg"].value("elastic", "stiffness").constant == pytest.approx(
+        3 * two_animals.bw / two_animals.hp
+    )
     with pytest.raises(QuadpipeError) as caught:
         load_controller(path, {"hind_ratio": 2})
     assert [(issue.code, issue.where.file) for issue in caught.value.issues] == [("out-of-range", "<parameters>")]
@@ -428,18 +464,26 @@ def test_a_tunable_can_be_overridden_within_its_range(tmp_path: Path, two_animal
 def test_an_extending_controller_sets_a_tunable_and_keeps_its_range(tmp_path: Path) -> None:
     write_knobs(tmp_path)
     child = tmp_path / "child.yaml"
-    child.write_text("schema: 1\nname: child\nextends: knobs.yaml\ntunables:\n  hold: 3 bw/HP\n  hind_ratio: 1.7\n", encoding="utf-8")
+    child.write_text(
+        "schema: 1\nname: child\nextends: knobs.yaml\ntunables:\n  hold: 3 bw/HP\n  hind_ratio: 1.7\n", encoding="utf-8"
+    )
     with pytest.raises(QuadpipeError) as caught:
         load_controller(child)
     (issue,) = caught.value.issues
     assert (issue.code, issue.where.file, issue.where.line) == ("out-of-range", str(child), 6)
     child.write_text("schema: 1\nname: child\nextends: knobs.yaml\ntunables:\n  hold: 3 bw/HP\n", encoding="utf-8")
     hold = load_controller(child).tunables["hold"]
-    assert (hold.value, hold.limits, hold.description) == ("3 bw/HP", (0, "4 bw/HP"), "How firmly the legs hold their length.")
+    assert (hold.value, hold.limits, hold.description) == (
+        "3 bw/HP",
+        (0, "4 bw/HP"),
+        "How firmly the legs hold their length.",
+    )
 
 
 def test_a_tunable_needs_a_range_and_a_description(tmp_path: Path) -> None:
-    path = write_knobs(tmp_path, KNOBS.replace("    description: How firmly the legs hold their length.\n    min: 0\n", ""))
+    path = write_knobs(
+        tmp_path, KNOBS.replace("    description: How firmly the legs hold their length.\n    min: 0\n", "")
+    )
     with pytest.raises(QuadpipeError) as caught:
         load_controller(path)
     assert [(issue.code, issue.message, issue.where.line) for issue in caught.value.issues] == [
@@ -548,7 +592,12 @@ def test_reference_documents_every_element_key_unit_and_function() -> None:
 
 def test_every_key_of_the_format_has_a_description() -> None:
     models = [ControllerFile, *ELEMENT_TYPES, *reference.PARTS]
-    missing = [f"{model.__name__}.{name}" for model in models for name, info in model.model_fields.items() if not info.description]
+    missing = [
+        f"{model.__name__}.{name}"
+        for model in models
+        for name, info in model.model_fields.items()
+        if not info.description
+    ]
     assert missing == []
 
 
@@ -559,7 +608,9 @@ def test_json_schema_accepts_shipped_controllers_and_rejects_unknown_keys() -> N
     validator = jsonschema.Draft202012Validator(controller_json_schema())
     for path in [*SHIPPED.glob("*.yaml"), *(FIXTURES / "good").glob("*.yaml")]:
         assert not list(validator.iter_errors(yaml.safe_load(path.read_text(encoding="utf-8")))), path.name
-    assert list(validator.iter_errors(yaml.safe_load((FIXTURES / "bad" / "unknown_key.yaml").read_text(encoding="utf-8"))))
+    assert list(
+        validator.iter_errors(yaml.safe_load((FIXTURES / "bad" / "unknown_key.yaml").read_text(encoding="utf-8")))
+    )
 
 
 def test_render_docs_needs_its_markers() -> None:

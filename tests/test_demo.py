@@ -11,7 +11,16 @@ from PIL import Image
 
 from tests.conftest import REPO
 
-DEMO_FILES = ("dog.xml", "dog_hill.npz", "dog_hill.glb", "dog_hill.usdc", "dog_hill.bvh", "dog_hill.metrics.json", "dog_hill.png", "dog_hill.mp4")
+DEMO_FILES = (
+    "dog.xml",
+    "dog_hill.npz",
+    "dog_hill.glb",
+    "dog_hill.usdc",
+    "dog_hill.bvh",
+    "dog_hill.metrics.json",
+    "dog_hill.png",
+    "dog_hill.mp4",
+)
 
 
 @pytest.mark.slow

@@ -40,7 +40,9 @@ ROTATION_TOLERANCE = 1e-4
 
 JS = REPO / "tests" / "js"
 NODE = shutil.which("node")
-needs_node = pytest.mark.skipif(NODE is None, reason="node is not installed: the glTF validator and three.js checks need Node.js 18+")
+needs_node = pytest.mark.skipif(
+    NODE is None, reason="node is not installed: the glTF validator and three.js checks need Node.js 18+"
+)
 
 Y_UP = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
 """glTF/BVH axes from quadpipe's: x = left (+Y), y = up (+Z), z = forward (+X). Rows map
@@ -112,7 +114,9 @@ def test_registry_lists_every_format_available_with_a_description():
 def without_pxr(monkeypatch):
     """Make usd-core look uninstalled, as on a machine without it."""
     real_find_spec = importlib.util.find_spec
-    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "pxr" else real_find_spec(name, *a))
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "pxr" else real_find_spec(name, *a)
+    )
 
 
 def test_a_missing_optional_package_shows_only_when_its_format_is_used(without_pxr, clip, tmp_path):
@@ -145,7 +149,11 @@ def test_an_unknown_suffix_is_refused_listing_the_formats(clip, tmp_path, name):
 def test_an_unwritable_path_is_refused_and_leaves_nothing(clip, tmp_path, suffix):
     (tmp_path / "a_file").write_text("not a folder")
     (tmp_path / f"folder{suffix}").mkdir()
-    for target in (tmp_path / "missing" / f"dog{suffix}", tmp_path / "a_file" / f"dog{suffix}", tmp_path / f"folder{suffix}"):
+    for target in (
+        tmp_path / "missing" / f"dog{suffix}",
+        tmp_path / "a_file" / f"dog{suffix}",
+        tmp_path / f"folder{suffix}",
+    ):
         with pytest.raises(QuadpipeError) as error:
             export_clip(clip, target)
         assert error.value.issues[0].code == "unwritable-output", target
@@ -343,7 +351,9 @@ def test_gltf_joints_follow_the_clip_on_every_frame(clip, written, suffix):
     joints = world[:, skin["joints"]]
     assert [document["nodes"][j]["name"] for j in skin["joints"]] == list(track.roles)
     np.testing.assert_allclose(joints[..., :3, 3] @ Y_UP, track.positions, atol=tolerance(clip))
-    np.testing.assert_allclose(Y_UP.T @ joints[..., :3, :3] @ Y_UP, clip_matrices(track.rotations), atol=ROTATION_TOLERANCE)
+    np.testing.assert_allclose(
+        Y_UP.T @ joints[..., :3, :3] @ Y_UP, clip_matrices(track.rotations), atol=ROTATION_TOLERANCE
+    )
     prop = next(i for i, node in enumerate(document["nodes"]) if node["name"] == "crate")
     np.testing.assert_allclose(world[:, prop, :3, 3] @ Y_UP, clip.props[0].positions, atol=tolerance(clip))
 
@@ -417,7 +427,9 @@ def test_threejs_plays_the_glb_like_the_clip(clip, written):
         expected = expected_skinned(track, frame, rest, owners)
         np.testing.assert_allclose(np.array(skin["vertexPositions"][k]) @ Y_UP, expected, atol=tolerance(clip))
     (crate,) = result["nodes"]
-    np.testing.assert_allclose(np.array(crate["positions"]) @ Y_UP, clip.props[0].positions[frames], atol=tolerance(clip))
+    np.testing.assert_allclose(
+        np.array(crate["positions"]) @ Y_UP, clip.props[0].positions[frames], atol=tolerance(clip)
+    )
 
 
 # -- USD -------------------------------------------------------------------------------------
@@ -430,8 +442,11 @@ def usd_errors(path: Path) -> list[str]:
     registry = UsdValidation.ValidationRegistry()
     context = UsdValidation.ValidationContext(registry.GetOrLoadAllValidators())
     errors = context.Validate(Usd.Stage.Open(str(path)))
-    return [f"{e.GetValidator().GetMetadata().name}: {e.GetMessage()}" for e in errors
-            if e.GetType() == UsdValidation.ValidationErrorType.Error]
+    return [
+        f"{e.GetValidator().GetMetadata().name}: {e.GetMessage()}"
+        for e in errors
+        if e.GetType() == UsdValidation.ValidationErrorType.Error
+    ]
 
 
 def test_usd_validation_catches_a_broken_stage(tmp_path):
@@ -485,10 +500,16 @@ def test_usd_joints_follow_the_clip_on_every_frame(clip, written, suffix):
     assert [str(j).split("/")[-1] for j in query.GetJointOrder()] == list(track.roles)
     for frame in range(clip.frame_count):
         world = np.array(query.ComputeJointWorldTransforms(UsdGeom.XformCache(frame)))
-        np.testing.assert_allclose(world[:, 3, :3], track.positions[frame], atol=tolerance(clip), err_msg=f"frame {frame}")
+        np.testing.assert_allclose(
+            world[:, 3, :3], track.positions[frame], atol=tolerance(clip), err_msg=f"frame {frame}"
+        )
         # Gf matrices act on row vectors: their upper 3x3 is the transposed rotation.
-        np.testing.assert_allclose(world[:, :3, :3].transpose(0, 2, 1), clip_matrices(track.rotations[frame]), atol=ROTATION_TOLERANCE)
-        box = UsdGeom.Xformable(stage.GetPrimAtPath("/World/props/crate")).ComputeLocalToWorldTransform(Usd.TimeCode(frame))
+        np.testing.assert_allclose(
+            world[:, :3, :3].transpose(0, 2, 1), clip_matrices(track.rotations[frame]), atol=ROTATION_TOLERANCE
+        )
+        box = UsdGeom.Xformable(stage.GetPrimAtPath("/World/props/crate")).ComputeLocalToWorldTransform(
+            Usd.TimeCode(frame)
+        )
         np.testing.assert_allclose(np.array(box)[3, :3], clip.props[0].positions[frame], atol=tolerance(clip))
 
 
@@ -509,7 +530,9 @@ def test_usd_rigid_skinning_moves_each_mesh_with_its_bone(clip, written):
             assert target.ComputeSkinnedPoints(transforms, points, Usd.TimeCode(frame))
             bone = track.roles.index(target.GetPrim().GetName())
             expected = expected_skinned(track, frame, np.array(rest, dtype=float), np.full(len(rest), bone))
-            np.testing.assert_allclose(np.array(points), expected, atol=tolerance(clip), err_msg=str(target.GetPrim().GetPath()))
+            np.testing.assert_allclose(
+                np.array(points), expected, atol=tolerance(clip), err_msg=str(target.GetPrim().GetPath())
+            )
     assert UsdGeom.Mesh(stage.GetPrimAtPath("/World/terrain")).GetPointsAttr().Get() is not None
 
 
@@ -578,9 +601,30 @@ def test_bvh_motion_reproduces_the_clip(clip, written):
     angles = np.radians(values[:, 3:].reshape(clip.frame_count, len(names), 3))
     c, s = np.cos(angles), np.sin(angles)
     one, zero = np.ones_like(c[..., 0]), np.zeros_like(c[..., 0])
-    rz = np.stack([np.stack([c[..., 0], -s[..., 0], zero], -1), np.stack([s[..., 0], c[..., 0], zero], -1), np.stack([zero, zero, one], -1)], -2)
-    rx = np.stack([np.stack([one, zero, zero], -1), np.stack([zero, c[..., 1], -s[..., 1]], -1), np.stack([zero, s[..., 1], c[..., 1]], -1)], -2)
-    ry = np.stack([np.stack([c[..., 2], zero, s[..., 2]], -1), np.stack([zero, one, zero], -1), np.stack([-s[..., 2], zero, c[..., 2]], -1)], -2)
+    rz = np.stack(
+        [
+            np.stack([c[..., 0], -s[..., 0], zero], -1),
+            np.stack([s[..., 0], c[..., 0], zero], -1),
+            np.stack([zero, zero, one], -1),
+        ],
+        -2,
+    )
+    rx = np.stack(
+        [
+            np.stack([one, zero, zero], -1),
+            np.stack([zero, c[..., 1], -s[..., 1]], -1),
+            np.stack([zero, s[..., 1], c[..., 1]], -1),
+        ],
+        -2,
+    )
+    ry = np.stack(
+        [
+            np.stack([c[..., 2], zero, s[..., 2]], -1),
+            np.stack([zero, one, zero], -1),
+            np.stack([-s[..., 2], zero, c[..., 2]], -1),
+        ],
+        -2,
+    )
     local = rz @ rx @ ry
     rotation = np.zeros_like(local)
     position = np.zeros((clip.frame_count, len(names), 3))
@@ -592,7 +636,9 @@ def test_bvh_motion_reproduces_the_clip(clip, written):
             position[:, joint] = position[:, parent] + np.einsum("fij,j->fi", rotation[:, parent], offsets[joint])
     order = [names.index(role) for role in track.roles]
     np.testing.assert_allclose(position[:, order] * CM @ Y_UP, track.positions, atol=tolerance(clip))
-    np.testing.assert_allclose(Y_UP.T @ rotation[:, order] @ Y_UP, clip_matrices(track.rotations), atol=ROTATION_TOLERANCE)
+    np.testing.assert_allclose(
+        Y_UP.T @ rotation[:, order] @ Y_UP, clip_matrices(track.rotations), atol=ROTATION_TOLERANCE
+    )
     assert np.abs(np.diff(values[:, 3:], axis=0)).max() < 180.0, "angles jump by a full turn"
 
 
@@ -617,8 +663,8 @@ def test_bvh_refuses_a_clip_with_two_animals(tmp_path):
 def test_tessellated_solids_are_closed_and_face_outward(kind, size, volume):
     import trimesh
 
-    from quadpipe.clip.model import Shape
     from quadpipe.clip.meshes import shape_mesh
+    from quadpipe.clip.model import Shape
 
     shape = Shape(kind, size, pos=(1.0, 2.0, 3.0), quat=(np.cos(0.3), 0.0, np.sin(0.3), 0.0))
     mesh = shape_mesh(shape)

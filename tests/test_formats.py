@@ -32,7 +32,9 @@ def _issue(excinfo: pytest.ExceptionInfo[QuadpipeError]):
     return excinfo.value.issues[0]
 
 
-def test_a_module_failing_to_import_for_want_of_its_package_is_reported_with_the_pip_hint(module_needing_absent_package):
+def test_a_module_failing_to_import_for_want_of_its_package_is_reported_with_the_pip_hint(
+    module_needing_absent_package,
+):
     fmt = FileFormat((".xyz",), module_needing_absent_package, "read", "test format", package="xyz-tools")
     assert fmt.available  # nothing to look for: only importing the module tells
     with pytest.raises(QuadpipeError) as excinfo:
@@ -46,15 +48,18 @@ def test_a_module_failing_to_import_for_want_of_its_package_is_reported_with_the
 
 
 def test_a_missing_package_is_found_without_importing_the_module_and_only_when_used():
-    fmt = FileFormat((".xyz",), "quadpipe_test_never_imported", "read", "test format", package="xyz-tools",
-                     imports=ABSENT_MODULE)
+    fmt = FileFormat(
+        (".xyz",), "quadpipe_test_never_imported", "read", "test format", package="xyz-tools", imports=ABSENT_MODULE
+    )
     assert not fmt.available and fmt.install_hint == "pip install xyz-tools"
     for check in (fmt.check_available, fmt.load):
         with pytest.raises(QuadpipeError) as excinfo:
             check(Path("run.xyz"))
         issue = _issue(excinfo)
         assert (issue.code, issue.message, issue.where.file) == (
-            "format-unavailable", "format .xyz unavailable: pip install xyz-tools", "run.xyz"
+            "format-unavailable",
+            "format .xyz unavailable: pip install xyz-tools",
+            "run.xyz",
         )
     assert "quadpipe_test_never_imported" not in sys.modules
 

@@ -21,12 +21,20 @@ import math
 import numpy as np
 import pytest
 
-from quadpipe.analysis import ALEXANDER_COEFFICIENT, ALEXANDER_EXPONENT, AnimalGait, HILDEBRAND_ORDER, analyze_clip, phase_distance, rotate
-from quadpipe.core import configs
+from quadpipe.analysis import (
+    ALEXANDER_COEFFICIENT,
+    ALEXANDER_EXPONENT,
+    HILDEBRAND_ORDER,
+    AnimalGait,
+    analyze_clip,
+    phase_distance,
+    rotate,
+)
 from quadpipe.anatomy import roles
-from quadpipe.clip.model import Clip
-from quadpipe.sim.recording import Recorder
 from quadpipe.animals.sizing import GRAVITY, natural_time
+from quadpipe.clip.model import Clip
+from quadpipe.core import configs
+from quadpipe.sim.recording import Recorder
 from quadpipe.world.placement import Placement
 from tests.conftest import built_animal, cached_simulation
 
@@ -39,6 +47,7 @@ DOG_FPS = 120.0
 def own_time(animal: str) -> float:
     """An animal's natural time sqrt(HP / g), seconds (0.26 s for the dog)."""
     return natural_time(built_animal(animal).animal.pelvis_height)
+
 
 FAR_GOAL = "[1000 HP, 0, 0]"
 """A goal far ahead, so that the rudder keeps the animals going straight while measured."""
@@ -102,7 +111,7 @@ class Measured:
     metrics: dict
 
     @classmethod
-    def of(cls, recorder: NaturalTimeRecorder, result) -> "Measured":
+    def of(cls, recorder: NaturalTimeRecorder, result) -> Measured:
         """The gait a recorder captured during a simulation `result`."""
         gait = analyze_clip(recorder.clip()).animals[0]
         return cls(gait, gait.froude or 0.0, result.metrics["animals"][recorder.animal])
@@ -113,14 +122,19 @@ def measure(animal: str, controller: str, **parameters: str) -> Measured:
     return _measure(animal, controller, tuple(sorted({"goal": FAR_GOAL, **parameters}.items())))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _measure(animal: str, controller: str, parameters: tuple[tuple[str, str], ...]) -> Measured:
     from quadpipe.sim.simulation import simulate
 
     time = own_time(animal)
     recorder = NaturalTimeRecorder(animal, SETTLE_NATURAL_TIMES * time)
-    result = simulate(animal, controller, seconds=(SETTLE_NATURAL_TIMES + MEASURE_NATURAL_TIMES) * time,
-                      parameters=dict(parameters), extra_controllers=[recorder])
+    result = simulate(
+        animal,
+        controller,
+        seconds=(SETTLE_NATURAL_TIMES + MEASURE_NATURAL_TIMES) * time,
+        parameters=dict(parameters),
+        extra_controllers=[recorder],
+    )
     return Measured.of(recorder, result)
 
 
@@ -145,14 +159,16 @@ MIN_DISTANCE_HP = 5.0
 MIN_PELVIS_HP = 0.7
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def walk_run(animal: str) -> Measured:
     """20 s of `walk` on the flat scene (its goal 20 HP ahead): the gait measured from 8 to 28
     natural times (before any animal reaches the goal), and the metrics of the whole run."""
     from quadpipe.sim.simulation import simulate
 
     time = own_time(animal)
-    recorder = NaturalTimeRecorder(animal, SETTLE_NATURAL_TIMES * time, (SETTLE_NATURAL_TIMES + MEASURE_NATURAL_TIMES) * time)
+    recorder = NaturalTimeRecorder(
+        animal, SETTLE_NATURAL_TIMES * time, (SETTLE_NATURAL_TIMES + MEASURE_NATURAL_TIMES) * time
+    )
     return Measured.of(recorder, simulate(animal, "walk", seconds=WALK_SECONDS, extra_controllers=[recorder]))
 
 
@@ -226,7 +242,9 @@ def test_every_gait_runs_a_long_time_on_course_without_blowing_up(animal, gait):
     result = simulate(animal, gait, seconds=EVERY_GAIT_NATURAL_TIMES * own_time(animal), parameters={"goal": FAR_GOAL})
     assert not result.metrics["animals"][animal]["fell"]
     yaw = trunk_yaw_deg(result.clip)
-    assert np.abs(yaw).max() < COURSE_TOLERANCE_DEG, f"off course from {np.argmax(np.abs(yaw) >= COURSE_TOLERANCE_DEG) / result.clip.fps:.1f} s"
+    assert np.abs(yaw).max() < COURSE_TOLERANCE_DEG, (
+        f"off course from {np.argmax(np.abs(yaw) >= COURSE_TOLERANCE_DEG) / result.clip.fps:.1f} s"
+    )
 
 
 @pytest.mark.slow
@@ -278,24 +296,38 @@ AUTO_RAMP = {"ramp_start": "16 * natural_time", "ramp_end": "24 * natural_time"}
 def window(clip: Clip, start_s: float, stop_s: float) -> Clip:
     """The frames of a clip between two times, seconds."""
     frames = slice(round(start_s * clip.fps), round(stop_s * clip.fps) + 1)
-    tracks = [dataclasses.replace(t, positions=t.positions[frames], rotations=t.rotations[frames],
-                                  foot_contacts=t.foot_contacts[frames]) for t in clip.animals]
+    tracks = [
+        dataclasses.replace(
+            t, positions=t.positions[frames], rotations=t.rotations[frames], foot_contacts=t.foot_contacts[frames]
+        )
+        for t in clip.animals
+    ]
     return dataclasses.replace(clip, animals=tracks, props=[], sensors={})
 
 
-def auto_gait_windows(animal: str, ramp: dict[str, str], windows: dict[str, tuple[float, float]]) -> tuple[dict, dict[str, AnimalGait]]:
+def auto_gait_windows(
+    animal: str, ramp: dict[str, str], windows: dict[str, tuple[float, float]]
+) -> tuple[dict, dict[str, AnimalGait]]:
     """auto_gait with a ramp of its target: its metrics and the gait of each window (natural times)."""
     from quadpipe.sim.simulation import simulate
 
     recorder = NaturalTimeRecorder(animal, 0.0)
-    result = simulate(animal, "auto_gait", seconds=max(stop for _, stop in windows.values()) * own_time(animal),
-                      parameters={"goal": FAR_GOAL, **ramp}, extra_controllers=[recorder])
+    result = simulate(
+        animal,
+        "auto_gait",
+        seconds=max(stop for _, stop in windows.values()) * own_time(animal),
+        parameters={"goal": FAR_GOAL, **ramp},
+        extra_controllers=[recorder],
+    )
     clip, time = recorder.clip(), own_time(animal)
-    gaits = {name: analyze_clip(window(clip, start * time, stop * time)).animals[0] for name, (start, stop) in windows.items()}
+    gaits = {
+        name: analyze_clip(window(clip, start * time, stop * time)).animals[0]
+        for name, (start, stop) in windows.items()
+    }
     return result.metrics["animals"][animal], gaits
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def auto_gait_run(animal: str) -> tuple[dict, dict[str, AnimalGait]]:
     """auto_gait ramping from a walk to a trot: its metrics and the gait of each window."""
     return auto_gait_windows(animal, AUTO_RAMP, AUTO_NATURAL_TIMES)
@@ -311,14 +343,19 @@ def test_auto_gait_walks_slowly_then_trots_as_the_speed_ramps_up(animal):
     assert gaits["trot"].stride_length_hp > gaits["walk"].stride_length_hp
 
 
-AUTO_TOP_RAMP = {"start_froude": "1", "end_froude": "3.3", "ramp_start": "16 * natural_time", "ramp_end": "28 * natural_time"}
+AUTO_TOP_RAMP = {
+    "start_froude": "1",
+    "end_froude": "3.3",
+    "ramp_start": "16 * natural_time",
+    "ramp_end": "28 * natural_time",
+}
 """From a trot at Fr 1 to the bound's Fr 3.3 (configs/controllers/bound.yaml)."""
 
 AUTO_TOP_NATURAL_TIMES = {"trot": (6.0, 16.0), "bound": (30.0, 44.0)}
 """Windows of that run, in natural times, before and after its ramp."""
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def auto_gait_top_run(animal: str) -> tuple[dict, dict[str, AnimalGait]]:
     """auto_gait ramping from a fast trot to a bound: its metrics and the gait of each window."""
     return auto_gait_windows(animal, AUTO_TOP_RAMP, AUTO_TOP_NATURAL_TIMES)
@@ -341,8 +378,12 @@ def test_auto_gait_blends_the_footfalls_continuously_with_the_froude_number():
     ramp = {"start_froude": "0.05", "end_froude": "3", "ramp_start": "0 s", "ramp_end": "100 s"}
     compiled = compile_controller(load_controller("auto_gait", ramp), scale_for_animals([built_animal("dog").animal]))
     names = ("froude", "phase_lf", "phase_rh", "phase_rf", "duty")
-    rows = np.array([[float(compiled.parameters[name]({"t": np.array([t])})[0]) for name in names]
-                     for t in np.linspace(0.0, 100.0, 2001)])
+    rows = np.array(
+        [
+            [float(compiled.parameters[name]({"t": np.array([t])})[0]) for name in names]
+            for t in np.linspace(0.0, 100.0, 2001)
+        ]
+    )
     froudes, blends = rows[:, 0], rows[:, 1:]
     assert np.abs(np.diff(blends, axis=0)).max() < 0.01  # the footfalls drift, never jump
     walk, trot, bound = (blends[np.argmin(np.abs(froudes - froude))] for froude in (0.15, 1.0, 3.0))
@@ -371,14 +412,18 @@ def up_axis_tilt_deg(rotations: np.ndarray) -> np.ndarray:
 
 @pytest.mark.slow
 def test_the_walking_dog_hit_by_20_random_boxes_is_up_and_walking_within_3_s():
-    result = cached_simulation("dog", "walk", FIRST_THROW_S + (THROWS - 1) * THROW_EVERY_S + RECOVERY_S + 1.0, "robustness")
+    result = cached_simulation(
+        "dog", "walk", FIRST_THROW_S + (THROWS - 1) * THROW_EVERY_S + RECOVERY_S + 1.0, "robustness"
+    )
     clip = result.clip
     track = clip.animals[0]
     hp, fps = track.pelvis_height, round(clip.fps)
     pelvis = track.positions[:, 0]
     thorax_index = roles.ROLES.index("thorax")
     half = (track.rest_end[thorax_index] - track.rest_start[thorax_index]) / 2.0
-    thorax = track.positions[:, thorax_index] + rotate(track.rotations[:, thorax_index], half)  # thorax.mid, the boxes' target
+    thorax = track.positions[:, thorax_index] + rotate(
+        track.rotations[:, thorax_index], half
+    )  # thorax.mid, the boxes' target
     tilt = up_axis_tilt_deg(track.rotations[:, thorax_index])
     walk_speed = math.sqrt(0.15 * GRAVITY * hp)  # configs/controllers/walk.yaml: froude 0.15
     boxes = [prop for prop in clip.props if prop.name.startswith("thrown")]
@@ -386,9 +431,14 @@ def test_the_walking_dog_hit_by_20_random_boxes_is_up_and_walking_within_3_s():
     hits = recovered = 0
     for index, box in enumerate(boxes):
         thrown = round((FIRST_THROW_S + index * THROW_EVERY_S) * fps)
-        hits += np.linalg.norm(box.positions[thrown:thrown + fps] - thorax[thrown:thrown + fps], axis=1).min() < HIT_DISTANCE_HP * hp
+        hits += (
+            np.linalg.norm(box.positions[thrown : thrown + fps] - thorax[thrown : thrown + fps], axis=1).min()
+            < HIT_DISTANCE_HP * hp
+        )
         back = thrown + round(RECOVERY_S * fps)
         speed = np.linalg.norm(pelvis[back + fps // 2, :2] - pelvis[back - fps // 2, :2])
-        recovered += bool(pelvis[back, 2] > MIN_PELVIS_HP * hp and tilt[back] < UPRIGHT_DEG and speed > WALKING_SHARE * walk_speed)
+        recovered += bool(
+            pelvis[back, 2] > MIN_PELVIS_HP * hp and tilt[back] < UPRIGHT_DEG and speed > WALKING_SHARE * walk_speed
+        )
     assert hits >= MIN_RECOVERED  # the boxes do hit it
     assert recovered >= MIN_RECOVERED

@@ -14,10 +14,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from quadpipe.anatomy.roles import ROLES
-from quadpipe.core.errors import QuadpipeError
-from quadpipe.importers import load_skeleton, read_raw_skeleton, skeleton_readers
-from quadpipe.importers.maya_ascii import read_skeleton as read_ma
 from quadpipe.anatomy.rolemap import (
     apply_role_map,
     guess_roles,
@@ -26,8 +22,11 @@ from quadpipe.anatomy.rolemap import (
     resolve_roles,
     write_role_map,
 )
-from quadpipe.importers import write_guessed_role_map
+from quadpipe.anatomy.roles import ROLES
 from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble
+from quadpipe.core.errors import QuadpipeError
+from quadpipe.importers import load_skeleton, read_raw_skeleton, skeleton_readers, write_guessed_role_map
+from quadpipe.importers.maya_ascii import read_skeleton as read_ma
 
 FIXTURES = Path(__file__).parent / "fixtures" / "skeletons"
 REFERENCE = FIXTURES / "reference.xml"
@@ -143,11 +142,27 @@ def test_guessing_skips_extra_joints_evenly_and_warns(reference: Skeleton) -> No
 @pytest.mark.parametrize(
     ("name", "side"),
     [
-        ("L_Hip", "left"), ("R_Hip", "right"), ("l_hip", "left"), ("r_knee", "right"),
-        ("LeftUpLeg", "left"), ("mixamorig:RightForeArm", "right"), ("hip.L", "left"), ("thigh.r", "right"),
-        ("Thigh_L", "left"), ("shin_R", "right"), ("Bip01 L Thigh", "left"), ("Bip01 R Calf", "right"),
-        ("|grp|LHand", "left"), ("lf_elbow", "left"), ("rh_knee", "right"),
-        ("Pelvis", None), ("Spine1", None), ("Root", None), ("Leg", None), ("Rear", None), ("Bip01 Head", None),
+        ("L_Hip", "left"),
+        ("R_Hip", "right"),
+        ("l_hip", "left"),
+        ("r_knee", "right"),
+        ("LeftUpLeg", "left"),
+        ("mixamorig:RightForeArm", "right"),
+        ("hip.L", "left"),
+        ("thigh.r", "right"),
+        ("Thigh_L", "left"),
+        ("shin_R", "right"),
+        ("Bip01 L Thigh", "left"),
+        ("Bip01 R Calf", "right"),
+        ("|grp|LHand", "left"),
+        ("lf_elbow", "left"),
+        ("rh_knee", "right"),
+        ("Pelvis", None),
+        ("Spine1", None),
+        ("Root", None),
+        ("Leg", None),
+        ("Rear", None),
+        ("Bip01 Head", None),
     ],
 )
 def test_name_side(name: str, side: str | None) -> None:
@@ -169,6 +184,7 @@ def test_guessed_role_map_round_trips(tmp_path: Path, reference: Skeleton) -> No
 
 def test_role_map_escapes_glob_characters(tmp_path: Path) -> None:
     raw = read_raw_skeleton(FIXTURES / "reference.bvh")
+
     def odd(name: str | None) -> str | None:
         return name.replace("Bip01", "Bip[01]*") if name else None
 
@@ -316,13 +332,16 @@ def read_maya(tmp_path: Path, body: str) -> dict[str, tuple[float, ...]]:
 
 
 def test_group_transform_moves_its_joints(tmp_path: Path) -> None:
-    positions = read_maya(tmp_path, """
+    positions = read_maya(
+        tmp_path,
+        """
 createNode transform -n "grp";
     setAttr ".t" -type "double3" 10 0 0 ;
     setAttr ".r" -type "double3" 0 90 0 ;
 createNode joint -n "a" -p "grp";
     setAttr ".t" -type "double3" 0 0 5 ;
-""")
+""",
+    )
     assert positions == {"a": (15.0, 0.0, 0.0)}
 
 
@@ -345,37 +364,47 @@ createNode joint -n "c" -p "b";
 
 @pytest.mark.parametrize(("order", "expected"), [(0, (1.0, 0.0, 0.0)), (4, (0.0, 0.0, 1.0))])
 def test_rotate_order(tmp_path: Path, order: int, expected: tuple[float, ...]) -> None:
-    positions = read_maya(tmp_path, f"""
+    positions = read_maya(
+        tmp_path,
+        f"""
 createNode joint -n "a";
     setAttr ".r" -type "double3" 90 90 0 ;
     setAttr ".ro" {order};
 createNode joint -n "b" -p "a";
     setAttr ".t" -type "double3" 0 1 0 ;
-""")
+""",
+    )
     assert positions["b"] == expected
 
 
 @pytest.mark.parametrize(("connected", "expected"), [(True, (3.0, 0.0, 0.0)), (False, (4.0, 0.0, 0.0))])
 def test_segment_scale_compensation(tmp_path: Path, connected: bool, expected: tuple[float, ...]) -> None:
-    positions = read_maya(tmp_path, """
+    positions = read_maya(
+        tmp_path,
+        """
 createNode joint -n "a";
     setAttr ".s" -type "double3" 2 2 2 ;
 createNode joint -n "b" -p "a";
     setAttr ".t" -type "double3" 1 0 0 ;
 createNode joint -n "c" -p "b";
     setAttr ".t" -type "double3" 1 0 0 ;
-""" + ('connectAttr "a.s" "b.is";\n' if connected else ""))
+"""
+        + ('connectAttr "a.s" "b.is";\n' if connected else ""),
+    )
     assert positions["b"] == (2.0, 0.0, 0.0)
     assert positions["c"] == expected
 
 
 def test_rotate_pivot_of_a_group(tmp_path: Path) -> None:
-    positions = read_maya(tmp_path, """
+    positions = read_maya(
+        tmp_path,
+        """
 createNode transform -n "grp";
     setAttr ".rp" -type "double3" 1 0 0 ;
     setAttr ".r" -type "double3" 0 0 90 ;
 createNode joint -n "a" -p "grp";
-""")
+""",
+    )
     assert positions["a"] == (1.0, -1.0, 0.0)
 
 
@@ -394,7 +423,9 @@ createNode joint -n "b" -p "a";
 
 
 def test_dag_paths_tell_apart_joints_with_the_same_name(tmp_path: Path) -> None:
-    positions = read_maya(tmp_path, """
+    positions = read_maya(
+        tmp_path,
+        """
 createNode joint -n "L";
     setAttr ".t" -type "double3" 1 0 0 ;
 createNode joint -n "Hip" -p "L";
@@ -403,16 +434,19 @@ createNode joint -n "R";
 createNode joint -n "Hip" -p "R";
 createNode joint -n "Knee" -p "R|Hip";
     setAttr ".t" -type "double3" 0 -5 0 ;
-""")
+""",
+    )
     assert positions["|L|Hip"] == (1.0, 0.0, 0.0)
     assert positions["Knee"] == (-1.0, -5.0, 0.0)
 
 
 def test_ambiguous_parent_is_an_error(tmp_path: Path) -> None:
     path = tmp_path / "ambiguous.ma"
-    path.write_text('//Maya ASCII\ncreateNode joint -n "L";\ncreateNode joint -n "Hip" -p "L";\n'
-                    'createNode joint -n "R";\ncreateNode joint -n "Hip" -p "R";\n'
-                    'createNode joint -n "Knee" -p "Hip";\n')
+    path.write_text(
+        '//Maya ASCII\ncreateNode joint -n "L";\ncreateNode joint -n "Hip" -p "L";\n'
+        'createNode joint -n "R";\ncreateNode joint -n "Hip" -p "R";\n'
+        'createNode joint -n "Knee" -p "Hip";\n'
+    )
     with pytest.raises(QuadpipeError) as caught:
         read_ma(path)
     issue = caught.value.issues[0]
@@ -421,9 +455,11 @@ def test_ambiguous_parent_is_an_error(tmp_path: Path) -> None:
 
 def test_bvh_offsets_accumulate_and_end_sites_end_their_joint(tmp_path: Path) -> None:
     path = tmp_path / "small.bvh"
-    path.write_text("HIERARCHY\nROOT Hips {\n OFFSET 1 2 3\n CHANNELS 6 Xposition Yposition Zposition "
-                    "Zrotation Xrotation Yrotation\n JOINT Left Up Leg\n {\n  OFFSET 0 1 0\n  End Site\n  {\n"
-                    "   OFFSET 0 0 2\n  }\n }\n}\nMOTION\nFrames: 0\n")
+    path.write_text(
+        "HIERARCHY\nROOT Hips {\n OFFSET 1 2 3\n CHANNELS 6 Xposition Yposition Zposition "
+        "Zrotation Xrotation Yrotation\n JOINT Left Up Leg\n {\n  OFFSET 0 1 0\n  End Site\n  {\n"
+        "   OFFSET 0 0 2\n  }\n }\n}\nMOTION\nFrames: 0\n"
+    )
     raw = read_raw_skeleton(path)
     hips, leg = raw.joints
     assert (leg.name, leg.parent, leg.position, leg.end, leg.line) == ("Left Up Leg", "Hips", (1, 3, 3), (1, 3, 5), 5)

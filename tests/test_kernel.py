@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 import yaml
 
-from quadpipe.quantities.expressions import FUNCTIONS, HEADING_FRAME_KEY
 from quadpipe.controllers.language.compiler import compile_controller
 from quadpipe.controllers.language.load import load_controller
-from quadpipe.quantities.units import scale_for_animals
 from quadpipe.controllers.runtime.runtime import ControllerRuntime
-from quadpipe.world import build_scene, load_scene
+from quadpipe.quantities.expressions import FUNCTIONS, HEADING_FRAME_KEY
+from quadpipe.quantities.units import scale_for_animals
 from quadpipe.sim.simulation import simulate
+from quadpipe.world import build_scene, load_scene
 from tests.conftest import built_animal
 
 PROBES: dict[str, str] = {
@@ -111,7 +111,10 @@ def test_every_function_of_the_language_is_probed() -> None:
 def test_the_kernel_computes_every_function_as_the_reference_does(tmp_path: Path) -> None:
     built = built_animal("dog")
     setup = build_scene(load_scene("flat"), built)
-    model, compiled = setup.spec.compile(), compile_controller(load_controller(str(probe_controller(tmp_path))), scale_for_animals([built.animal]))
+    model, compiled = (
+        setup.spec.compile(),
+        compile_controller(load_controller(str(probe_controller(tmp_path))), scale_for_animals([built.animal])),
+    )
     data = mujoco.MjData(model)
     runtime = ControllerRuntime(compiled, model, setup.placements)
     pulls = [index for index, (_, kind) in enumerate(runtime.program.slots) if kind == "pull"]
@@ -126,7 +129,9 @@ def test_the_kernel_computes_every_function_as_the_reference_does(tmp_path: Path
             for slot, name in zip(pulls, PROBES):
                 expected = compiled.elements[f"probe_{name}"].value("strength")(env)[0]
                 got = runtime.last.forces[slot, 2]
-                assert got == pytest.approx(expected, rel=1e-12, abs=1e-12), f"{name} at t = {data.time:.3f} s: {PROBES[name]}"
+                assert got == pytest.approx(expected, rel=1e-12, abs=1e-12), (
+                    f"{name} at t = {data.time:.3f} s: {PROBES[name]}"
+                )
             checked += 1
         data.xfrc_applied[:] = 0.0  # the probes only measure: the dog stays a passive ragdoll
         mujoco.mj_step2(model, data)
@@ -144,7 +149,16 @@ RAMP_START_HP = -6.0
 def ramp_scene(folder: Path) -> Path:
     """A 10 degree ramp rising along +x, under the animal from the start."""
     path = folder / "ramp.yaml"
-    terrain = [{"type": "slope", "start": f"{RAMP_START_HP} HP", "angle": f"{RAMP_DEG} deg", "length": "12 HP", "top": "2 HP", "width": "8 HP"}]
+    terrain = [
+        {
+            "type": "slope",
+            "start": f"{RAMP_START_HP} HP",
+            "angle": f"{RAMP_DEG} deg",
+            "length": "12 HP",
+            "top": "2 HP",
+            "width": "8 HP",
+        }
+    ]
     path.write_text(yaml.safe_dump({"schema": 1, "name": "ramp", "terrain": terrain}, sort_keys=False))
     return path
 
@@ -152,7 +166,10 @@ def ramp_scene(folder: Path) -> Path:
 def test_sensors_measure_what_they_say(tmp_path: Path) -> None:
     built = built_animal("dog")
     setup = build_scene(load_scene(str(ramp_scene(tmp_path))), built)
-    model, compiled = setup.spec.compile(), compile_controller(load_controller(str(probe_controller(tmp_path))), scale_for_animals([built.animal]))
+    model, compiled = (
+        setup.spec.compile(),
+        compile_controller(load_controller(str(probe_controller(tmp_path))), scale_for_animals([built.animal])),
+    )
     data = mujoco.MjData(model)
     runtime = ControllerRuntime(compiled, model, setup.placements)
     while True:  # a passive dog falls onto the ramp: until its feet touch it
@@ -167,7 +184,9 @@ def test_sensors_measure_what_they_say(tmp_path: Path) -> None:
     ground_below = (hip[:, 0] - RAMP_START_HP * built.animal.pelvis_height) * slope
     assert runtime._arrays["contact"].any(), "a foot on the ramp"
     assert sensors["hip_height"] == pytest.approx(hip[:, 2] - ground_below, abs=1e-6)
-    np.testing.assert_allclose(sensors["ground"], [[-math.sin(math.radians(RAMP_DEG)), 0.0, math.cos(math.radians(RAMP_DEG))]], atol=1e-6)
+    np.testing.assert_allclose(
+        sensors["ground"], [[-math.sin(math.radians(RAMP_DEG)), 0.0, math.cos(math.radians(RAMP_DEG))]], atol=1e-6
+    )
     np.testing.assert_allclose(sensors["hip_velocity"], runtime.point_velocity(data, "pelvis.mid"), atol=1e-12)
 
 

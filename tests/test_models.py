@@ -12,11 +12,11 @@ import mujoco
 import numpy as np
 import pytest
 
+from quadpipe.anatomy import roles
+from quadpipe.animals import sizing
+from quadpipe.animals.model import box_extent, clamped_radii
 from quadpipe.core import configs
 from quadpipe.sim import health as physics
-from quadpipe.animals import sizing
-from quadpipe.anatomy import roles
-from quadpipe.animals.model import box_extent, clamped_radii
 from quadpipe.world.placement import Placement, build_world
 from tests.conftest import built_animal
 
@@ -29,7 +29,16 @@ SETTLED_WINDOW_S = 0.5
 SETTLED_KINETIC_ENERGY = 1e-3
 """Settled: kinetic energy below this fraction of m*g*HP throughout the last half second."""
 
-THESIS_FIG7_DOG = {"tail": 186, "pelvis": 1311, "spine": 106, "thorax": 656, "neck": 106, "head": 280, "front leg": 266, "rear leg": 231}
+THESIS_FIG7_DOG = {
+    "tail": 186,
+    "pelvis": 1311,
+    "spine": 106,
+    "thorax": 656,
+    "neck": 106,
+    "head": 280,
+    "front leg": 266,
+    "rear leg": 231,
+}
 FIG7_PARTS = {
     "tail": roles.TAIL,
     "pelvis": ("pelvis",),
@@ -112,7 +121,11 @@ def test_clamped_radius_never_exceeds_a_neighbour():
     bones = built_animal("rat").animal.skeleton.bones
     radii = clamped_radii(bones, radius=1.0)  # an absurd radius: every bone gets clamped
     for role, radius in radii.items():
-        assert radius == min([bones[role].length] + [bones[n].length for n in roles.CHILDREN[role]] + ([bones[roles.PARENT[role]].length] if roles.PARENT[role] else []))
+        assert radius == min(
+            [bones[role].length]
+            + [bones[n].length for n in roles.CHILDREN[role]]
+            + ([bones[roles.PARENT[role]].length] if roles.PARENT[role] else [])
+        )
 
 
 @pytest.mark.parametrize(

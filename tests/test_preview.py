@@ -16,13 +16,35 @@ import pytest
 from quadpipe.animals import sizing
 from quadpipe.clip.model import Shape
 from quadpipe.core.errors import QuadpipeError
+from quadpipe.preview import Clock, LivePreview, load_replay
 from quadpipe.preview.clock import MAX_CATCH_UP_S, SLOW_MOTION_RATE
-from quadpipe.preview.overlays import BALANCE_RGBA, CONTACT_NORMAL_HP, FORCE_ARROW_HP_PER_BW, FORCE_RGBA, GOAL_RGBA, LIVE_OVERLAYS, SEGMENT_RGBA
+from quadpipe.preview.overlays import (
+    BALANCE_RGBA,
+    CONTACT_NORMAL_HP,
+    FORCE_ARROW_HP_PER_BW,
+    FORCE_RGBA,
+    GOAL_RGBA,
+    LIVE_OVERLAYS,
+    SEGMENT_RGBA,
+)
 from quadpipe.preview.replay import REPLAY_OVERLAYS
 from quadpipe.preview.scenery import Pose, layer
 from quadpipe.preview.throws import MAX_THROW_DISTANCE_HP, POOL_PREFIX, THROW_FROUDE, THROW_TARGET_POINTS
-from quadpipe.preview.window import ARROW_HEAD_ANGLE_DEG, ARROW_HEAD_MAX_HP, CAMERA_START, CHECKER_RGBA, FLOOR_DRAWN_HP, FollowCamera, KEY_BINDINGS, WINDOW_ACTIONS, bound_actions, checker_plane, help_text, overlay_lines, pose_matrices
-from quadpipe.preview import Clock, LivePreview, load_replay
+from quadpipe.preview.window import (
+    ARROW_HEAD_ANGLE_DEG,
+    ARROW_HEAD_MAX_HP,
+    CAMERA_START,
+    CHECKER_RGBA,
+    FLOOR_DRAWN_HP,
+    KEY_BINDINGS,
+    WINDOW_ACTIONS,
+    FollowCamera,
+    bound_actions,
+    checker_plane,
+    help_text,
+    overlay_lines,
+    pose_matrices,
+)
 from tests.conftest import FIXTURES, REPO
 
 FRAME = 1.0 / sizing.FRAME_RATE
@@ -142,17 +164,25 @@ def test_a_valid_edit_is_swapped_in_without_restarting(tmp_path):
     preview = LivePreview("dog", str(controller))
     _run(preview, 0.5)
     weight = _weight(preview)
-    assert np.linalg.norm(_forces(preview, "segment"), axis=1) == pytest.approx([0.2 * weight] * 2, rel=WEIGHT_TOLERANCE)
+    assert np.linalg.norm(_forces(preview, "segment"), axis=1) == pytest.approx(
+        [0.2 * weight] * 2, rel=WEIGHT_TOLERANCE
+    )
     old_runtime, time_before = preview.runtime, preview.time
     pedal_before = _forces(preview, "cycle")[0]
     _write(controller, HOLD.replace("0.2 bw", "0.5 bw"))
     preview.advance(FRAME)
     assert preview.runtime is not old_runtime and preview.error is None
     assert preview.time == pytest.approx(time_before + FRAME)  # same simulation, not restarted
-    assert np.linalg.norm(_forces(preview, "segment"), axis=1) == pytest.approx([0.5 * weight] * 2, rel=WEIGHT_TOLERANCE)
+    assert np.linalg.norm(_forces(preview, "segment"), axis=1) == pytest.approx(
+        [0.5 * weight] * 2, rel=WEIGHT_TOLERANCE
+    )
     # the pedal kept its phase: one frame on, its force turned by 360 deg x (1/30 s) / 2 s, not back to phase 0
     pedal_after = _forces(preview, "cycle")[0]
-    turn = math.degrees(math.acos(np.clip(pedal_before @ pedal_after / np.linalg.norm(pedal_before) / np.linalg.norm(pedal_after), -1, 1)))
+    turn = math.degrees(
+        math.acos(
+            np.clip(pedal_before @ pedal_after / np.linalg.norm(pedal_before) / np.linalg.norm(pedal_after), -1, 1)
+        )
+    )
     assert turn == pytest.approx(360 * FRAME / 2.0, abs=2.0)
     assert any("reloaded" in line for line in preview.pop_notices())
 
@@ -169,7 +199,9 @@ def test_an_invalid_edit_keeps_the_old_controller_and_says_where(tmp_path):
     assert preview.runtime is runtime
     assert f"{controller}:{line}:" in preview.error and "unknown-key" in preview.error
     assert any(f"{controller}:{line}:" in notice for notice in preview.pop_notices())
-    assert np.linalg.norm(_forces(preview, "segment"), axis=1) == pytest.approx([0.2 * _weight(preview)] * 2, rel=WEIGHT_TOLERANCE)
+    assert np.linalg.norm(_forces(preview, "segment"), axis=1) == pytest.approx(
+        [0.2 * _weight(preview)] * 2, rel=WEIGHT_TOLERANCE
+    )
     _write(controller, HOLD.replace("0.2 bw", "0.3 bw"))  # fixed: swapped in, error gone
     preview.advance(FRAME)
     assert preview.error is None and preview.runtime is not runtime
@@ -180,7 +212,9 @@ def test_a_scene_edit_rebuilds_the_world(tmp_path):
     preview = LivePreview("dog", "rigid", scene=str(scene))
     _run(preview, 0.3)
     statics = len(preview.scenery.static)
-    _write(scene, "schema: 1\nname: edited\nterrain:\n  - {type: box, at: [3 HP, 0, 0.1 HP], size: [1 HP, 1 HP, 0.2 HP]}\n")
+    _write(
+        scene, "schema: 1\nname: edited\nterrain:\n  - {type: box, at: [3 HP, 0, 0.1 HP], size: [1 HP, 1 HP, 0.2 HP]}\n"
+    )
     preview.advance(FRAME)
     assert preview.scenery_version == 1 and len(preview.scenery.static) == statics + 1
     assert preview.time == pytest.approx(FRAME)  # restarted in the new world (then stepped one frame)
@@ -303,7 +337,9 @@ def test_overlays_sit_on_the_body_points_with_their_colours():
     tops = [_xpos(preview, f"dog/{bone}") for bone in ("lf_scapula", "rf_scapula", "lh_hip", "rh_hip")]
     assert balance.starts == pytest.approx(np.array(tops))
     assert np.all(balance.colors == BALANCE_RGBA)
-    assert balance.ends - balance.starts == pytest.approx(np.tile([0.0, 0.0, -hp], (4, 1)), abs=0.1 * hp)  # a still dog: straight down
+    assert balance.ends - balance.starts == pytest.approx(
+        np.tile([0.0, 0.0, -hp], (4, 1)), abs=0.1 * hp
+    )  # a still dog: straight down
 
     forces, last = layers["forces"], preview.runtime.last
     assert len(forces.starts) == len(last.forces) > 0
@@ -413,7 +449,11 @@ def test_arrows_points_and_poses_as_geometry():
     points, segments, _ = overlay_lines(cross, hp=1.0)
     assert len(segments) == 3
     assert points[segments].mean(axis=1).ravel() == pytest.approx([1.0, 2.0, 3.0] * 3)
-    turn = Pose(np.array([[1.0, 2.0, 3.0]]), np.array([[math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)]]), np.array([True]))
+    turn = Pose(
+        np.array([[1.0, 2.0, 3.0]]),
+        np.array([[math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)]]),
+        np.array([True]),
+    )
     matrix = pose_matrices(turn)[0]
     assert matrix[:3, 3] == pytest.approx([1.0, 2.0, 3.0])
     assert matrix[:3, :3] @ [1.0, 0.0, 0.0] == pytest.approx([0.0, 1.0, 0.0])
@@ -490,14 +530,18 @@ os._exit(code)  # open3d's headless window system hangs in its exit handlers
 
 def test_the_window_draws_the_preview_and_maps_keys_to_actions():
     """A real open3d window (headless here: open3d falls back to offscreen), driven by hand: no frame is rendered."""
-    done = subprocess.run([sys.executable, "-c", textwrap.dedent(WINDOW_CHECK)], cwd=REPO, capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(WINDOW_CHECK)], cwd=REPO, capture_output=True, text=True, timeout=120
+    )
     if "window-ready" not in done.stdout:
         pytest.skip(f"open3d cannot create a window here: {done.stderr[-300:]}")
     assert done.returncode == 0, done.stderr[-2000:]
     result = json.loads(done.stdout.split("RESULT ", 1)[1])
     assert result["time_runs"] and result["all_bodies"] and result["static"] and not result["parked_visible"]
     assert result["pelvis_transform_error"] < 1e-5
-    assert {"balance", "forces", "segments"} <= set(result["overlays"]) and "goal" not in result["overlays"]  # rigid has no goal
+    assert {"balance", "forces", "segments"} <= set(result["overlays"]) and "goal" not in result[
+        "overlays"
+    ]  # rigid has no goal
     assert result["ball_toward_eye"] == pytest.approx(1.0, abs=1e-6)  # thrown from the camera's direction
     assert result["ball_distance_hp"] <= MAX_THROW_DISTANCE_HP + 1e-6
     assert result["ball_visible"] and result["forces_after_toggle"] is False

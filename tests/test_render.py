@@ -17,9 +17,9 @@ from PIL import Image
 
 from quadpipe import render
 from quadpipe.anatomy.roles import LEGS, TOE_BONES
+from quadpipe.clip.kinematics import rotate
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import QuadpipeError
-from quadpipe.clip.kinematics import rotate
 from tests.clips import BLOW_UP_FRAME, blown_up_clip, dog_clip
 
 WIDTH, HEIGHT = 160, 120
@@ -316,7 +316,7 @@ def test_contact_sheet_has_the_grid_size_and_a_different_stamped_picture_per_til
     assert sheet.shape == (2 * HEIGHT, 3 * WIDTH, 3)
     frames = render.sheet_frames(short_clip, (3, 2))
     assert frames[0] == 0 and frames[-1] == SHORT_FRAMES - 1 and len(set(frames)) == 6
-    tiles = [sheet[r * HEIGHT:(r + 1) * HEIGHT, c * WIDTH:(c + 1) * WIDTH] for r in range(2) for c in range(3)]
+    tiles = [sheet[r * HEIGHT : (r + 1) * HEIGHT, c * WIDTH : (c + 1) * WIDTH] for r in range(2) for c in range(3)]
     for i in range(len(tiles)):
         for j in range(i + 1, len(tiles)):
             assert len(_changed(tiles[i], tiles[j])) > 0, (i, j)

@@ -11,14 +11,14 @@ import mujoco
 import numpy as np
 import pytest
 
+from quadpipe.controllers.language import compile_quantity
+from quadpipe.core.errors import QuadpipeError
+from quadpipe.quantities.fields import POINT
+from quadpipe.quantities.units import STANDARD_GRAVITY, Scale
 from quadpipe.world import SceneSetup, available_scenes, build_scene, load_scene, scene_json_schema
 from quadpipe.world.placement import ground_height
 from quadpipe.world.schema import SCHEMA_PATH, json_schema_text, write_schema
 from quadpipe.world.throws import PARK_DEPTH_HP, ThrowEvent, flight_time
-from quadpipe.controllers.language import compile_quantity
-from quadpipe.quantities.fields import POINT
-from quadpipe.quantities.units import STANDARD_GRAVITY, Scale
-from quadpipe.core.errors import QuadpipeError
 from tests.conftest import REPO, built_animal
 
 SCENES = available_scenes()
@@ -81,7 +81,10 @@ def test_every_shipped_scene_builds_with_a_dog_and_steps_without_a_warning(name:
 @pytest.mark.parametrize("name", SCENES)
 def test_shipped_scenes_point_editors_at_the_schema_and_match_their_file_name(name: str) -> None:
     path = SHIPPED / f"{name}.yaml"
-    assert path.read_text(encoding="utf-8").splitlines()[0] == "# yaml-language-server: $schema=../../schemas/scene.schema.json"
+    assert (
+        path.read_text(encoding="utf-8").splitlines()[0]
+        == "# yaml-language-server: $schema=../../schemas/scene.schema.json"
+    )
     assert load_scene(name).name == name
 
 
@@ -123,7 +126,9 @@ def test_hill_has_its_angle_its_height_on_the_plateau_and_ends_on_the_ground() -
     start, height, top, angle = 4 * hp, 0.5 * hp, 3 * hp, math.radians(12)
     run = height / math.tan(angle)
     up_slope = (surface_height(model, start + 0.7 * run) - surface_height(model, start + 0.3 * run)) / (0.4 * run)
-    down_slope = (surface_height(model, start + run + top + 0.7 * run) - surface_height(model, start + run + top + 0.3 * run)) / (0.4 * run)
+    down_slope = (
+        surface_height(model, start + run + top + 0.7 * run) - surface_height(model, start + run + top + 0.3 * run)
+    ) / (0.4 * run)
     assert up_slope == pytest.approx(math.tan(angle), rel=1e-6)
     assert down_slope == pytest.approx(-math.tan(angle), rel=1e-6)
     assert surface_height(model, start + run + top / 2) == pytest.approx(height)
@@ -141,7 +146,9 @@ def test_slope_rises_length_times_tan_angle_then_stays_flat() -> None:
     assert surface_height(model, 3 * hp + 12 * hp + 4 * hp) == pytest.approx(rise)
 
 
-@pytest.mark.parametrize(("name", "rise", "depth", "steps", "up"), [("stairs", 0.1, 0.6, 5, True), ("steep_stairs", 0.35, 0.5, 6, False)])
+@pytest.mark.parametrize(
+    ("name", "rise", "depth", "steps", "up"), [("stairs", 0.1, 0.6, 5, True), ("steep_stairs", 0.35, 0.5, 6, False)]
+)
 def test_stairs_have_their_steps(name: str, rise: float, depth: float, steps: int, up: bool) -> None:
     setup, model, _ = build(name)
     hp = setup.placements[0].built.animal.pelvis_height
@@ -162,7 +169,10 @@ def test_an_animal_starting_on_terrain_is_lifted_onto_it() -> None:
 
 
 def test_a_box_item_is_placed_sized_and_turned(tmp_path: Path) -> None:
-    path = write_scene(tmp_path, "terrain:\n  - {type: box, at: [5 HP, 1 HP, 0.5 HP], size: [2 HP, 1 HP, 1 HP], euler: [0, 0, 90 deg]}\n")
+    path = write_scene(
+        tmp_path,
+        "terrain:\n  - {type: box, at: [5 HP, 1 HP, 0.5 HP], size: [2 HP, 1 HP, 1 HP], euler: [0, 0, 90 deg]}\n",
+    )
     setup, model, _ = build(path)
     hp = setup.placements[0].built.animal.pelvis_height
     geom = model.geom("terrain0_box")
@@ -172,7 +182,9 @@ def test_a_box_item_is_placed_sized_and_turned(tmp_path: Path) -> None:
 
 
 def test_ground_friction_goes_to_floor_terrain_and_bones_and_none_removes_the_floor(tmp_path: Path) -> None:
-    slippery = write_scene(tmp_path, "ground: {friction: 0.3}\nterrain:\n  - {type: hill, start: 4 HP, angle: 10 deg, height: 0.5 HP}\n")
+    slippery = write_scene(
+        tmp_path, "ground: {friction: 0.3}\nterrain:\n  - {type: hill, start: 4 HP, angle: 10 deg, height: 0.5 HP}\n"
+    )
     _, model, _ = build(slippery)
     assert model.geom("floor").friction[0] == pytest.approx(0.3)
     assert model.geom("terrain0_hill_up").friction[0] == pytest.approx(0.3)
@@ -216,7 +228,9 @@ def test_crowd_places_ten_named_dogs_in_a_grid() -> None:
 
 
 def test_entries_without_species_take_the_given_animal_and_face_their_heading(tmp_path: Path) -> None:
-    path = write_scene(tmp_path, "animals:\n  - {name: a, at: [0, 0]}\n  - {name: b, species: rat, at: [0, 3 HP], heading: 90 deg}\n")
+    path = write_scene(
+        tmp_path, "animals:\n  - {name: a, at: [0, 0]}\n  - {name: b, species: rat, at: [0, 3 HP], heading: 90 deg}\n"
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         setup, model, _ = build(path, "cat")
@@ -259,8 +273,18 @@ def launch_now(model: mujoco.MjModel, data: mujoco.MjData, event: ThrowEvent) ->
     return target
 
 
-@pytest.mark.parametrize(("heading", "source", "side"), [("0 deg", "left", [0, 1, 0]), ("90 deg", "left", [-1, 0, 0]), ("0 deg", "front", [1, 0, 0]), ("0 deg", "[0, -1, 1]", [0, -math.sqrt(0.5), math.sqrt(0.5)])])
-def test_a_throw_appears_beside_its_target_with_the_aimed_velocity(tmp_path: Path, heading: str, source: str, side: list[float]) -> None:
+@pytest.mark.parametrize(
+    ("heading", "source", "side"),
+    [
+        ("0 deg", "left", [0, 1, 0]),
+        ("90 deg", "left", [-1, 0, 0]),
+        ("0 deg", "front", [1, 0, 0]),
+        ("0 deg", "[0, -1, 1]", [0, -math.sqrt(0.5), math.sqrt(0.5)]),
+    ],
+)
+def test_a_throw_appears_beside_its_target_with_the_aimed_velocity(
+    tmp_path: Path, heading: str, source: str, side: list[float]
+) -> None:
     setup, model, data = build(throw_scene(tmp_path, heading, source))
     (event,) = setup.events(model)
     plan = setup.throws[0]
@@ -338,7 +362,9 @@ def test_random_throws_are_seeded_and_within_their_ranges(tmp_path: Path) -> Non
     dog = first.placements[0].built.animal
     plans = first.throws
     assert len(plans) == 20
-    assert [(p.time, p.mass, p.speed, tuple(p.direction)) for p in plans] == [(p.time, p.mass, p.speed, tuple(p.direction)) for p in again.throws]
+    assert [(p.time, p.mass, p.speed, tuple(p.direction)) for p in plans] == [
+        (p.time, p.mass, p.speed, tuple(p.direction)) for p in again.throws
+    ]
     assert [p.time for p in plans] == pytest.approx([2.0 + 2.0 * k for k in range(20)])
     masses = np.array([p.mass for p in plans]) / dog.mass_kg
     speeds = np.array([p.speed for p in plans]) / math.sqrt(STANDARD_GRAVITY * dog.pelvis_height)
@@ -374,7 +400,10 @@ def test_flight_time_hits_the_point_at_the_speed() -> None:
 
 
 def test_a_prop_starts_where_and_how_fast_it_is_told(tmp_path: Path) -> None:
-    path = write_scene(tmp_path, "props:\n  - {name: ball, type: sphere, at: [3 HP, 0, 0.3 HP], size: [0.3 HP], mass: 0.05 bm, velocity: [-1 m/s, 0, 0]}\n")
+    path = write_scene(
+        tmp_path,
+        "props:\n  - {name: ball, type: sphere, at: [3 HP, 0, 0.3 HP], size: [0.3 HP], mass: 0.05 bm, velocity: [-1 m/s, 0, 0]}\n",
+    )
     setup, model, data = build(path)
     dog = setup.placements[0].built.animal
     assert model.body("ball").pos == pytest.approx([3 * dog.pelvis_height, 0, 0.3 * dog.pelvis_height])
@@ -389,7 +418,10 @@ def test_a_prop_starts_where_and_how_fast_it_is_told(tmp_path: Path) -> None:
 
 
 def test_a_goal_path_is_a_piecewise_linear_expression_in_t(tmp_path: Path) -> None:
-    path = write_scene(tmp_path, "goals:\n  goal: [20 HP, 0, 0]\n  target: {path: [[2 s, [5 HP, 0, 0]], [12 s, [5 HP, 5 HP, 0]], [22 s, [0, 5 HP, 1 HP]]]}\n")
+    path = write_scene(
+        tmp_path,
+        "goals:\n  goal: [20 HP, 0, 0]\n  target: {path: [[2 s, [5 HP, 0, 0]], [12 s, [5 HP, 5 HP, 0]], [22 s, [0, 5 HP, 1 HP]]]}\n",
+    )
     setup, _, _ = build(path)
     hp = setup.placements[0].built.animal.pelvis_height
     scale = Scale.of([1.0, 2.0], [1.0, 1.0])
@@ -445,8 +477,7 @@ def test_an_unknown_scene_name_lists_the_valid_ones() -> None:
     with pytest.raises(QuadpipeError) as caught:
         load_scene("hil")
     assert str(caught.value) == (
-        "error unknown-scene: there is no scene named 'hil'\n"
-        f"  hint: did you mean 'hill'? (valid: {', '.join(SCENES)})"
+        f"error unknown-scene: there is no scene named 'hil'\n  hint: did you mean 'hill'? (valid: {', '.join(SCENES)})"
     )
 
 
@@ -472,12 +503,32 @@ def test_every_problem_is_reported_at_once_in_file_order(here: Path) -> None:
 @pytest.mark.parametrize(
     ("item", "value", "message"),
     [
-        ("terrain:\n  - {type: hill, start: 4 HP, angle: 70 deg, height: 1 HP}", "70 deg", "error out-of-range: terrain.0.angle: '70 deg' must be at most 60 deg"),
-        ("terrain:\n  - {type: hill, start: 4 HP, angle: 10 deg, height: -1 HP}", "-1 HP", "error out-of-range: terrain.0.height: '-1 HP' must be more than 0"),
-        ("props:\n  - {name: b, type: box, at: [0, 0, 1 HP], size: [1 HP], mass: 1 kg}", "[1 HP]", "error invalid-value: props.0.size: a box has 3 size item(s): length (x), width (y), height (z); got 1"),
-        ("props:\n  - {name: floor, type: sphere, at: [0, 0, 1 HP], size: [1 HP], mass: 1 kg}", "floor", "error reserved-name: the name 'floor' is taken by the scene itself"),
+        (
+            "terrain:\n  - {type: hill, start: 4 HP, angle: 70 deg, height: 1 HP}",
+            "70 deg",
+            "error out-of-range: terrain.0.angle: '70 deg' must be at most 60 deg",
+        ),
+        (
+            "terrain:\n  - {type: hill, start: 4 HP, angle: 10 deg, height: -1 HP}",
+            "-1 HP",
+            "error out-of-range: terrain.0.height: '-1 HP' must be more than 0",
+        ),
+        (
+            "props:\n  - {name: b, type: box, at: [0, 0, 1 HP], size: [1 HP], mass: 1 kg}",
+            "[1 HP]",
+            "error invalid-value: props.0.size: a box has 3 size item(s): length (x), width (y), height (z); got 1",
+        ),
+        (
+            "props:\n  - {name: floor, type: sphere, at: [0, 0, 1 HP], size: [1 HP], mass: 1 kg}",
+            "floor",
+            "error reserved-name: the name 'floor' is taken by the scene itself",
+        ),
         ("animals: []", "[]", "error invalid-value: animals: the list is empty"),
-        ("goals:\n  goal: [1 HP, 2 deg, 0]", "[1 HP", "error dimension-mismatch: goals.goal: vector components mix units in \"['1 HP', '2 deg', 0]\""),
+        (
+            "goals:\n  goal: [1 HP, 2 deg, 0]",
+            "[1 HP",
+            "error dimension-mismatch: goals.goal: vector components mix units in \"['1 HP', '2 deg', 0]\"",
+        ),
     ],
 )
 def test_bad_values_are_located_at_the_value(here: Path, item: str, value: str, message: str) -> None:

@@ -436,13 +436,17 @@ def build(species: Species) -> tuple[list[Joint], dict[str, float]]:
     joints += spine
     joints.append(Joint("thorax", roles.SPINE[-1], thorax_at))
     up, forward = _axial_offset(species.thorax, hp)
-    neck, head_at = _axial_chain(roles.NECK, species.neck, "thorax", (0.0, thorax_at[1] + up, thorax_at[2] + forward), hp)
+    neck, head_at = _axial_chain(
+        roles.NECK, species.neck, "thorax", (0.0, thorax_at[1] + up, thorax_at[2] + forward), hp
+    )
     joints += neck
     up, forward = _axial_offset(species.head, hp)
     joints.append(Joint("head", roles.NECK[-1], head_at, (0.0, head_at[1] + up, head_at[2] + forward)))
 
     back, rise = species.tail_root
-    tail, tail_end = _axial_chain(roles.TAIL, species.tail, "pelvis", (0.0, hp + rise * hp, -back * hp), hp, backward=True)
+    tail, tail_end = _axial_chain(
+        roles.TAIL, species.tail, "pelvis", (0.0, hp + rise * hp, -back * hp), hp, backward=True
+    )
     tail[-1] = Joint(tail[-1].name, tail[-1].parent, tail[-1].position, tail_end)
     joints += tail
 

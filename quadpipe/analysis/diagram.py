@@ -9,9 +9,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from quadpipe.core.errors import QuadpipeError
 from quadpipe.analysis.report import HILDEBRAND_ORDER, AnimalGait, GaitReport
 from quadpipe.analysis.text import figure
+from quadpipe.core.errors import QuadpipeError
 
 DIAGRAM_STRIDES = 4
 """Strides shown in a footfall diagram (the last ones, the steadiest)."""
@@ -107,7 +107,8 @@ def check_diagram_path(path: str | Path) -> None:
         raise QuadpipeError.single(
             "unsupported-diagram-format",
             f"cannot draw a footfall diagram as {suffix or 'a file without suffix'!r}: {str(path)!r}",
-            file=str(path), hint="footfall diagrams are PNG pictures: name the file *.png",
+            file=str(path),
+            hint="footfall diagrams are PNG pictures: name the file *.png",
         )
 
 
@@ -178,7 +179,9 @@ def _stance_spans(animal: AnimalGait, leg: str, panel: DiagramPanel) -> list[tup
     spans = []
     for footfall in animal.legs[leg].footfalls:
         start = 0.0 if footfall.touchdown_frame is None else footfall.touchdown_frame / animal.fps
-        end = (animal.frames - 1) / animal.fps if footfall.liftoff_frame is None else footfall.liftoff_frame / animal.fps
+        end = (
+            (animal.frames - 1) / animal.fps if footfall.liftoff_frame is None else footfall.liftoff_frame / animal.fps
+        )
         start, end = max(start, panel.start_s), min(end, panel.end_s)
         if end > start:
             spans.append((start, end))

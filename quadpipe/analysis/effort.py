@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from quadpipe.analysis.report import ControllerEffort
 from quadpipe.animals.sizing import GRAVITY
 from quadpipe.clip.model import AnimalTrack, Clip
 from quadpipe.core.errors import QuadpipeError
-from quadpipe.analysis.report import ControllerEffort
 
 CONTROLLER_FORCE_SENSOR = "controller_force:{animal}"
 """Clip sensor: (F, 3) net external force the controller applied to the animal, newtons."""
@@ -49,7 +49,9 @@ def controller_effort(clip: Clip, track: AnimalTrack, frames: int, pelvis: np.nd
     power = _sensor(clip, controller_power_key(track.name), ())
     if force is None and power is None:
         return None
-    mean_force = None if force is None else float(np.linalg.norm(force[:frames], axis=1).mean() / (track.mass_kg * GRAVITY))
+    mean_force = (
+        None if force is None else float(np.linalg.norm(force[:frames], axis=1).mean() / (track.mass_kg * GRAVITY))
+    )
     work = None if power is None else float(power[:frames].sum() / clip.fps)
     distance = float(np.linalg.norm(pelvis[-1] - pelvis[0])) if frames else 0.0
     per_kg_m = None if work is None or distance <= 0.0 else work / (track.mass_kg * distance)

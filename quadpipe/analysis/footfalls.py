@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 
+from quadpipe.analysis.report import Footfall
 from quadpipe.anatomy.roles import TOE_BONES
 from quadpipe.animals.sizing import natural_time
 from quadpipe.clip.model import AnimalTrack
-from quadpipe.analysis.report import Footfall
 
 MIN_RUN_NATURAL_TIMES = 0.1
 """A contact or a gap shorter than this many natural times sqrt(HP / g) is a flicker (26 ms

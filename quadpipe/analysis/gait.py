@@ -7,13 +7,20 @@ import math
 
 import numpy as np
 
+from quadpipe.analysis.effort import controller_effort
+from quadpipe.analysis.footfalls import (
+    clean_contacts,
+    finite_frames,
+    footfalls_of,
+    frame_rate_note,
+    min_run_frames,
+    toe_tips,
+)
+from quadpipe.analysis.report import AnimalGait, Footfall, Gait, GaitReport, LegGait
 from quadpipe.anatomy import roles
 from quadpipe.animals.sizing import GRAVITY
 from quadpipe.clip.model import AnimalTrack, Clip
 from quadpipe.core.errors import QuadpipeError, did_you_mean
-from quadpipe.analysis.effort import controller_effort
-from quadpipe.analysis.footfalls import clean_contacts, finite_frames, footfalls_of, frame_rate_note, min_run_frames, toe_tips
-from quadpipe.analysis.report import AnimalGait, Footfall, Gait, GaitReport, LegGait
 
 REFERENCE_LEG = "lh"
 """The foot whose touchdowns start every stride (phase 0), as in Hildebrand's gait diagrams."""
@@ -43,7 +50,8 @@ def analyze_clip(clip: Clip, animal: str | None = None) -> GaitReport:
         tracks = [track for track in clip.animals if track.name == animal]
         if not tracks:
             raise QuadpipeError.single(
-                "unknown-animal", f"the clip has no animal named {animal!r}",
+                "unknown-animal",
+                f"the clip has no animal named {animal!r}",
                 hint=did_you_mean(animal, [t.name for t in clip.animals]),
             )
     return GaitReport(clip.fps, clip.frame_count, tuple(_analyze_track(clip, track) for track in tracks))
@@ -61,7 +69,9 @@ def _analyze_track(clip: Clip, track: AnimalTrack) -> AnimalGait:
     contacts = {leg: clean_contacts(track.foot_contacts[:frames, i], min_frames) for i, leg in enumerate(roles.LEGS)}
     tips = toe_tips(track, frames)
     footfalls = {leg: footfalls_of(contacts[leg], tips[leg]) for leg in roles.LEGS}
-    strides = np.array([f.touchdown_frame for f in footfalls[REFERENCE_LEG] if f.touchdown_frame is not None], dtype=int)
+    strides = np.array(
+        [f.touchdown_frame for f in footfalls[REFERENCE_LEG] if f.touchdown_frame is not None], dtype=int
+    )
     if len(strides) < 2:
         notes.append(f"the reference foot ({REFERENCE_LEG.upper()}) makes fewer than two touchdowns: no whole stride")
         strides = strides[:0]
@@ -77,18 +87,33 @@ def _analyze_track(clip: Clip, track: AnimalTrack) -> AnimalGait:
     gait = _name_gait(legs, contacts, strides)
     effort = controller_effort(clip, track, frames, pelvis)
     return AnimalGait(
-        track.name, track.species, float(track.pelvis_height), float(track.mass_kg), float(clip.fps), frames,
-        tuple(int(s) for s in strides), legs, period, length, speed, froude, gait, effort, tuple(notes),
+        track.name,
+        track.species,
+        float(track.pelvis_height),
+        float(track.mass_kg),
+        float(clip.fps),
+        frames,
+        tuple(int(s) for s in strides),
+        legs,
+        period,
+        length,
+        speed,
+        froude,
+        gait,
+        effort,
+        tuple(notes),
     )
 
 
-def _leg_gait(leg: str, footfalls: tuple[Footfall, ...], contact: np.ndarray, strides: np.ndarray, fps: float) -> LegGait:
+def _leg_gait(
+    leg: str, footfalls: tuple[Footfall, ...], contact: np.ndarray, strides: np.ndarray, fps: float
+) -> LegGait:
     complete = [f for f in footfalls if f.slip_m is not None]
     stance = float(np.mean([f.liftoff_frame - f.touchdown_frame for f in complete])) / fps if complete else None
     slip = float(np.mean([f.slip_m for f in complete])) if complete else None
     duty = phase = spread = None
     if len(strides):
-        duty = float(contact[strides[0]:strides[-1]].mean())
+        duty = float(contact[strides[0] : strides[-1]].mean())
         phases = _phases([f.touchdown_frame for f in footfalls if f.touchdown_frame is not None], strides)
         if len(phases):
             phase, spread = circular_mean(phases)
@@ -122,7 +147,9 @@ def _name_gait(legs: dict[str, LegGait], contacts: dict[str, np.ndarray], stride
     if len(strides) == 0:
         stepping = [leg for leg in roles.LEGS if sum(f.touchdown_frame is not None for f in legs[leg].footfalls) >= 2]
         if stepping:
-            return Gait("irregular", None, f"{', '.join(stepping).upper()} step but the reference foot makes no whole stride")
+            return Gait(
+                "irregular", None, f"{', '.join(stepping).upper()} step but the reference foot makes no whole stride"
+            )
         feet_down = sum(float(c.mean()) if len(c) else 0.0 for c in contacts.values())
         if feet_down >= STAND_MIN_FEET_DOWN:
             return Gait("stand", None, f"no stepping, {feet_down:.1f} feet down on average")
@@ -171,7 +198,9 @@ def classify_gait(phases: dict[str, float | None], duty: float) -> Gait:
     fore_left_first = (rf - lf) % 1.0 < 0.5
     variant = "transverse" if hind_left_first == fore_left_first else "rotary"
     order = "the same" if variant == "transverse" else "the opposite"
-    return Gait("gallop", variant, f"asymmetric, fore pair lands in {order} left/right order as the hind pair ({figures})")
+    return Gait(
+        "gallop", variant, f"asymmetric, fore pair lands in {order} left/right order as the hind pair ({figures})"
+    )
 
 
 def _symmetric_gait(diagonality: float, duty: float, figures: str) -> Gait:

@@ -168,7 +168,12 @@ class AnimalGait:
             "pelvis_height_m": hp,
             "mass_kg": self.mass_kg,
             "frames_analysed": self.frames,
-            "gait": {"name": self.gait.name, "variant": self.gait.variant, "label": self.gait.label, "reason": self.gait.reason},
+            "gait": {
+                "name": self.gait.name,
+                "variant": self.gait.variant,
+                "label": self.gait.label,
+                "reason": self.gait.reason,
+            },
             "strides": self.stride_count,
             "stride_period_s": self.stride_period_s,
             "stride_frequency_hz": self.stride_frequency_hz,
@@ -182,7 +187,9 @@ class AnimalGait:
                 "ratio": self.alexander_ratio,
             },
             "legs": {leg: _leg_dict(self.legs[leg], self.fps, hp) for leg in HILDEBRAND_ORDER},
-            "controller_forces": "not recorded" if self.effort is None else {
+            "controller_forces": "not recorded"
+            if self.effort is None
+            else {
                 "mean_net_force_bw": self.effort.mean_net_force_bw,
                 "work_j": self.effort.work_j,
                 "work_j_per_kg_m": self.effort.work_j_per_kg_m,

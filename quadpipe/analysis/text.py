@@ -26,7 +26,9 @@ def _format_animal(a: AnimalGait) -> str:
             f"Froude {a.froude:.3f}"
         )
         if a.alexander_ratio is not None:
-            lines.append(f"  Alexander: 2.3 Fr^0.3 = {a.alexander_stride_hp:.2f} HP predicted, ratio {a.alexander_ratio:.2f}")
+            lines.append(
+                f"  Alexander: 2.3 Fr^0.3 = {a.alexander_stride_hp:.2f} HP predicted, ratio {a.alexander_ratio:.2f}"
+            )
     lines.append("  foot  duty  phase  spread  stance(s)  slip(mm)  slip(HP)")
     for leg in HILDEBRAND_ORDER:
         g = a.legs[leg]

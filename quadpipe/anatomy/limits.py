@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Iterable
 
 from quadpipe.anatomy.roles import PARENT, ROLES, kind_of
 from quadpipe.core.errors import Location, QuadpipeError
@@ -87,7 +87,9 @@ class JointLimits:
         )
 
 
-def from_degrees(twist_min: float, twist_max: float, swing1: float, swing2: float, where: Location | None = None) -> JointLimit:
+def from_degrees(
+    twist_min: float, twist_max: float, swing1: float, swing2: float, where: Location | None = None
+) -> JointLimit:
     """Build a `JointLimit` from the table's degrees, checking the values make sense."""
     if twist_min > twist_max:
         raise QuadpipeError.single(
@@ -95,6 +97,11 @@ def from_degrees(twist_min: float, twist_max: float, swing1: float, swing2: floa
         )
     if swing1 < 0 or swing2 < 0:
         raise QuadpipeError.single(
-            "bad-limits", "swings are symmetric half-ranges and cannot be negative", where=where, hint="write e.g. 10 for -10..+10"
+            "bad-limits",
+            "swings are symmetric half-ranges and cannot be negative",
+            where=where,
+            hint="write e.g. 10 for -10..+10",
         )
-    return JointLimit(math.radians(twist_min), math.radians(twist_max), math.radians(swing1), math.radians(swing2), where)
+    return JointLimit(
+        math.radians(twist_min), math.radians(twist_max), math.radians(swing1), math.radians(swing2), where
+    )

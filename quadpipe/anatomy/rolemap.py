@@ -17,18 +17,19 @@ and from the hierarchy and the rest positions (everything else). See docs/format
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from fnmatch import fnmatchcase
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from quadpipe.anatomy.roles import FRONT_CHAIN, HEAD_BONE, HIND_CHAIN, LEGS, NECK, PARENT, ROLES, SPINE, TAIL
-from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.anatomy.skeleton import UNIT_TO_METRES, UP_AXES, JointRecord, RawSkeleton, check_structure
+from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.yamlio import load_yaml, validate_document
 
 GLOB_CHARACTERS = "*?["
@@ -42,9 +43,22 @@ RIGHT_WORDS = {"r", "right", "rt", "rf", "rh"}
 """Name parts (case-insensitive) that say which side a joint is on."""
 
 ANATOMY: dict[str, str] = {
-    "clavicle": "scapula", "humerus": "shoulder", "upperarm": "shoulder", "radius": "elbow", "ulna": "elbow",
-    "forearm": "elbow", "metacarpus": "wrist", "hand": "wrist", "femur": "hip", "thigh": "hip", "tibia": "knee",
-    "fibula": "knee", "shin": "knee", "calf": "knee", "metatarsus": "ankle", "foot": "ankle",
+    "clavicle": "scapula",
+    "humerus": "shoulder",
+    "upperarm": "shoulder",
+    "radius": "elbow",
+    "ulna": "elbow",
+    "forearm": "elbow",
+    "metacarpus": "wrist",
+    "hand": "wrist",
+    "femur": "hip",
+    "thigh": "hip",
+    "tibia": "knee",
+    "fibula": "knee",
+    "shin": "knee",
+    "calf": "knee",
+    "metatarsus": "ankle",
+    "foot": "ankle",
 }
 """Anatomical bone names -> the role kind of that bone (a bone is named after its proximal joint)."""
 
@@ -218,15 +232,25 @@ def _role_conflicts(chosen: Mapping[str, RolePattern]) -> list[Issue]:
         if first is second:
             names = ", ".join(repr(n) for n, _ in holders[:SHOWN_JOINTS])
             names += " ..." if len(holders) > SHOWN_JOINTS else ""
-            issues.append(Issue("ambiguous-pattern",
-                                f"{first.pattern!r} gives role {role} to {len(holders)} joints: {names}",
-                                first.where, "make the pattern match one joint (write the full name)"))
+            issues.append(
+                Issue(
+                    "ambiguous-pattern",
+                    f"{first.pattern!r} gives role {role} to {len(holders)} joints: {names}",
+                    first.where,
+                    "make the pattern match one joint (write the full name)",
+                )
+            )
         else:
-            issues.append(Issue("duplicate-role",
-                                f"role {role} is given to {first_name!r} "
-                                f"(by {first.pattern!r}, line {first.where.line}) "
-                                f"and to {second_name!r} (by {second.pattern!r})",
-                                second.where, "each role belongs to exactly one joint"))
+            issues.append(
+                Issue(
+                    "duplicate-role",
+                    f"role {role} is given to {first_name!r} "
+                    f"(by {first.pattern!r}, line {first.where.line}) "
+                    f"and to {second_name!r} (by {second.pattern!r})",
+                    second.where,
+                    "each role belongs to exactly one joint",
+                )
+            )
     return issues
 
 
@@ -519,8 +543,13 @@ def resolve_roles(raw: RawSkeleton, role_map: str | Path | None = None) -> RoleR
     named = {j.name for j in raw.joints if j.role}
     roles = {name: role for name, role in guess.roles.items() if name not in named and role not in file_roles}
     warnings = tuple(
-        Issue("guessed-chain", f"roles guessed with joints skipped: {note}", raw.where(),
-              "check the skipped joints; a role map (--roles) fixes the choice", severity="warning")
+        Issue(
+            "guessed-chain",
+            f"roles guessed with joints skipped: {note}",
+            raw.where(),
+            "check the skipped joints; a role map (--roles) fixes the choice",
+            severity="warning",
+        )
         for note in guess.skips
     )
     return RoleResolution(raw, roles, warnings, guess)
@@ -552,9 +581,11 @@ def role_map_text(
     """
     order = {role: index for index, role in enumerate(ROLES)}
     entries = sorted(roles.items(), key=lambda item: order.get(item[1], len(order)))
-    header = [f"# Role map{f' for {Path(source).name}' if source else ''}, written by quadpipe.",
-              "# Keys are joint names (shell globs, case-insensitive); values are roles (`quadpipe roles`).",
-              "# Check it, then pass it with --roles."]
+    header = [
+        f"# Role map{f' for {Path(source).name}' if source else ''}, written by quadpipe.",
+        "# Keys are joint names (shell globs, case-insensitive); values are roles (`quadpipe roles`).",
+        "# Check it, then pass it with --roles.",
+    ]
     if missing:
         header.append(f"# Not placed yet: {', '.join(missing)}")
     data: dict[str, Any] = {}

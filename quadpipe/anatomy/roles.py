@@ -19,8 +19,8 @@ Body frame used everywhere in quadpipe: metres, +X forward, +Y to the animal's l
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from fnmatch import fnmatchcase
-from typing import Iterable
 
 LEGS: tuple[str, ...] = ("lf", "rf", "lh", "rh")
 """Leg prefixes: left fore, right fore, left hind, right hind."""
@@ -40,7 +40,9 @@ def leg_chain(leg: str) -> tuple[str, ...]:
 TOE_BONES: dict[str, str] = {leg: f"{leg}_{leg_chain(leg)[-1]}" for leg in LEGS}
 """The last phalanx of each leg, whose far end is the toe tip."""
 
-FOOT_BONES: dict[str, tuple[str, str]] = {leg: (f"{leg}_{leg_chain(leg)[-2]}", f"{leg}_{leg_chain(leg)[-1]}") for leg in LEGS}
+FOOT_BONES: dict[str, tuple[str, str]] = {
+    leg: (f"{leg}_{leg_chain(leg)[-2]}", f"{leg}_{leg_chain(leg)[-1]}") for leg in LEGS
+}
 """The bones whose contact with the world counts as the foot touching down: the last two phalanges."""
 
 

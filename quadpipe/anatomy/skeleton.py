@@ -7,8 +7,8 @@ and axes). `assemble` checks it, gives each joint a role, converts it to quadpip
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 
@@ -126,7 +126,6 @@ class Skeleton:
         return float(self.bones["pelvis"].start[2]) - self.ground_height
 
 
-
 def assemble(raw: RawSkeleton, role_of: Mapping[str, str] | None = None) -> Skeleton:
     """Check a raw skeleton, assign roles and convert it to the body frame.
 
@@ -219,7 +218,7 @@ def _check_hierarchy(raw: RawSkeleton, by_name: Mapping[str, JointRecord]) -> No
         while current.parent is not None:
             current = by_name[current.parent]
             if current.name in seen:
-                loop = " -> ".join(seen[seen.index(current.name):] + [current.name])
+                loop = " -> ".join(seen[seen.index(current.name) :] + [current.name])
                 raise QuadpipeError.single(
                     "hierarchy-cycle",
                     f"the hierarchy loops: {loop}",

@@ -17,10 +17,10 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from quadpipe.core import configs
-from quadpipe.core.errors import Issue, QuadpipeError
 from quadpipe.anatomy.limits import JointLimit
 from quadpipe.anatomy.skeleton import Skeleton
+from quadpipe.core import configs
+from quadpipe.core.errors import Issue, QuadpipeError
 from quadpipe.core.yamlio import load_yaml, validate_document
 
 REFERENCE_HP_M = 0.6556

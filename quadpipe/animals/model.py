@@ -21,10 +21,10 @@ import mujoco
 import numpy as np
 
 from quadpipe.anatomy import roles
-from quadpipe.animals import sizing
-from quadpipe.animals.library import Animal
 from quadpipe.anatomy.limits import JointLimit
 from quadpipe.anatomy.skeleton import Bone
+from quadpipe.animals import sizing
+from quadpipe.animals.library import Animal
 
 THESIS_DOG_HP_CM = 65.56
 """Pelvis height of the thesis's dog, where its mass rules were set."""
@@ -184,7 +184,11 @@ def _add_defaults(spec: mujoco.MjSpec, animal: Animal, tau: float) -> dict[str, 
     bone.joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
     bone.joint.solref_limit = [tau, 1.0]
     bone.joint.solimp_limit = sizing.constraint_impedance(hp)
-    bone.joint.damping = [JOINT_DAMPING_PER_NATURAL_TIME * mass * sizing.GRAVITY * hp * sizing.natural_time(hp), 0.0, 0.0]
+    bone.joint.damping = [
+        JOINT_DAMPING_PER_NATURAL_TIME * mass * sizing.GRAVITY * hp * sizing.natural_time(hp),
+        0.0,
+        0.0,
+    ]
     bone.joint.armature = JOINT_ARMATURE * mass * hp**2
     classes = {"bone": bone}
     for role, limit in animal.limits.items():
@@ -235,7 +239,9 @@ def _add_geoms(
     origin = bone.start
     if role in roles.BOX_BONES:
         centre, half = box_extent(bone, bones, radius)
-        body.add_geom(default=default, name=role, type=mujoco.mjtGeom.mjGEOM_BOX, pos=centre - origin, size=half, mass=mass)
+        body.add_geom(
+            default=default, name=role, type=mujoco.mjtGeom.mjGEOM_BOX, pos=centre - origin, size=half, mass=mass
+        )
     elif role == roles.HEAD_BONE:
         segments = head_capsules(bone)
         lengths = [np.linalg.norm(b - a) for a, b in segments]

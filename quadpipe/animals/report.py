@@ -41,7 +41,9 @@ def bone_rows(built: BuiltAnimal) -> list[dict[str, Any]]:
                 "dof": limit.dof if limit else 6,
                 "limits_deg": None
                 if limit is None
-                else [round(math.degrees(v), 2) for v in (limit.twist_min, limit.twist_max, limit.swing1, limit.swing2)],
+                else [
+                    round(math.degrees(v), 2) for v in (limit.twist_min, limit.twist_max, limit.swing1, limit.swing2)
+                ],
             }
         )
     return rows

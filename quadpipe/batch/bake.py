@@ -8,8 +8,9 @@ bakes the same way into a staging folder, then renames the files into place
 from __future__ import annotations
 
 import json
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 from quadpipe.animals.sizing import FRAME_RATE
 
@@ -31,7 +32,7 @@ def bake(
     parameters: Mapping[str, str] | None = None,
     fps: float = FRAME_RATE,
     on_frame: Callable[[float], None] | None = None,
-) -> "Result":
+) -> Result:
     """Simulate once (see `quadpipe.sim.simulation.simulate`), write the clip into every output,
     then the metrics JSON.
 

@@ -223,8 +223,13 @@ def _bake(job: Job, link: WorkerLink | None) -> dict:
     staging = Path(_staging_folder(job))
     try:
         result = bake(
-            job.animal, job.controller, seconds=job.seconds, scene=job.scene, parameters=dict(job.parameters),
-            outputs=[staging / output.name for output in job.outputs], metrics_path=staging / job.metrics_path.name,
+            job.animal,
+            job.controller,
+            seconds=job.seconds,
+            scene=job.scene,
+            parameters=dict(job.parameters),
+            outputs=[staging / output.name for output in job.outputs],
+            metrics_path=staging / job.metrics_path.name,
             on_frame=_ProgressTicker(job.name, link) if link is not None else None,
         )
         for path in job.files:
@@ -240,7 +245,9 @@ def _staging_folder(job: Job) -> str:
         return tempfile.mkdtemp(prefix=f".{job.name}.partial-", dir=job.folder)
     except OSError as exc:
         raise QuadpipeError.single(
-            "unwritable-output", f"cannot write into {job.folder!r}: {exc.strerror}", file=job.folder,
+            "unwritable-output",
+            f"cannot write into {job.folder!r}: {exc.strerror}",
+            file=job.folder,
             hint="check that the output folder exists and is writable (on every Dask worker too)",
         ) from None
 

@@ -8,8 +8,9 @@ See docs/batch.md.
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated, Any, Sequence
+from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
@@ -27,6 +28,7 @@ DEFAULT_OUTPUT = "out/batch"
 
 COMMAND_LINE = "<command line>"
 """Where options given on the command line are reported to come from."""
+
 
 def _as_list(value: Any) -> Any:
     """Accept one name where a list of names is expected (`animals: dog`)."""
@@ -63,7 +65,10 @@ def _unique(value: list[str]) -> list[str]:
 
 Names = Annotated[list[str], BeforeValidator(_as_list), Field(min_length=1), AfterValidator(_names)]
 Formats = Annotated[
-    list[Annotated[str, AfterValidator(_format)]], BeforeValidator(_as_list), Field(min_length=1), AfterValidator(_unique)
+    list[Annotated[str, AfterValidator(_format)]],
+    BeforeValidator(_as_list),
+    Field(min_length=1),
+    AfterValidator(_unique),
 ]
 
 

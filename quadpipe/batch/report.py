@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 from quadpipe.batch.jobs import Job, JobResult, Outcome
 
@@ -38,13 +39,17 @@ class ProgressDisplay:
         self.seconds = {job.name: job.seconds for job in jobs}
         self.total, self.done = len(jobs), done
         self.progress = Progress(
-            TextColumn("{task.description}", markup=False), BarColumn(), TextColumn("{task.fields[amount]}"), TimeElapsedColumn(),
-            console=Console(stderr=True), disable=not enabled,
+            TextColumn("{task.description}", markup=False),
+            BarColumn(),
+            TextColumn("{task.fields[amount]}"),
+            TimeElapsedColumn(),
+            console=Console(stderr=True),
+            disable=not enabled,
         )
         self.overall = self.progress.add_task("batch", total=self.total, completed=done, amount=self._jobs_text())
         self.running: dict[str, Any] = {}
 
-    def __enter__(self) -> "ProgressDisplay":
+    def __enter__(self) -> ProgressDisplay:
         self.progress.start()
         return self
 
@@ -77,9 +82,8 @@ class ProgressDisplay:
 
 def summary_table(report: BatchReport) -> Any:
     """A rich `Table`: job, outcome, wall time, distance in HP, file sizes, error message."""
-    from rich.table import Table
-
     from rich.markup import escape
+    from rich.table import Table
 
     counts = ", ".join(f"{report.count(outcome)} {outcome.value}" for outcome in Outcome)
     jobs = len(report.results)

@@ -13,9 +13,10 @@ import os
 import queue
 import time
 import uuid
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any
 
 from quadpipe.batch.jobs import Job, JobResult, Outcome, WorkerLink, expand_jobs, run_job, skipped_result
 from quadpipe.batch.plan import BatchPlan
@@ -78,7 +79,9 @@ def _prepare_folder(jobs: Sequence[Job]) -> None:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise QuadpipeError.single(
-            "unwritable-output", f"cannot make the output folder {str(folder)!r}: {exc.strerror}", file=str(folder),
+            "unwritable-output",
+            f"cannot make the output folder {str(folder)!r}: {exc.strerror}",
+            file=str(folder),
             hint="choose another output folder",
         ) from None
     for path in jobs[0].outputs:
@@ -96,7 +99,7 @@ def _start_method() -> str:
     return "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
 
 
-def _run_locally(jobs: Sequence[Job], workers: int, display: "ProgressDisplay") -> Iterable[JobResult]:
+def _run_locally(jobs: Sequence[Job], workers: int, display: ProgressDisplay) -> Iterable[JobResult]:
     """Run jobs in `workers` processes, yielding results as they finish."""
     context = multiprocessing.get_context(_start_method())
     with context.Manager() as manager:
@@ -112,7 +115,7 @@ def _run_locally(jobs: Sequence[Job], workers: int, display: "ProgressDisplay") 
             pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _drain(reports: "queue.Queue[tuple[str, float]]") -> list[tuple[str, float]]:
+def _drain(reports: queue.Queue[tuple[str, float]]) -> list[tuple[str, float]]:
     """Every progress report waiting in the queue, without blocking."""
     items = []
     while True:
@@ -122,21 +125,20 @@ def _drain(reports: "queue.Queue[tuple[str, float]]") -> list[tuple[str, float]]
             return items
 
 
-def _run_on_dask(jobs: Sequence[Job], address: str, display: "ProgressDisplay") -> Iterable[JobResult]:
+def _run_on_dask(jobs: Sequence[Job], address: str, display: ProgressDisplay) -> Iterable[JobResult]:
     """Run jobs on a Dask distributed cluster, yielding results as they finish."""
     distributed = _import_distributed()
     try:
         client = distributed.Client(address, timeout=CONNECT_TIMEOUT_S)
     except (OSError, TimeoutError, ValueError) as exc:
         raise QuadpipeError.single(
-            "scheduler-unreachable", f"cannot reach the Dask scheduler at {address!r}: {exc}",
+            "scheduler-unreachable",
+            f"cannot reach the Dask scheduler at {address!r}: {exc}",
             hint="check the address (tcp://HOST:8786) and that `dask scheduler` runs there",
         ) from None
     with client:
         batch_id = uuid.uuid4().hex[:8]
-        futures = {
-            client.submit(run_job, job, key=f"quadpipe-{job.name}-{batch_id}", pure=False): job for job in jobs
-        }
+        futures = {client.submit(run_job, job, key=f"quadpipe-{job.name}-{batch_id}", pure=False): job for job in jobs}
         yield from _collect(futures, display, lambda: [])
 
 
@@ -146,13 +148,14 @@ def _import_distributed() -> Any:
         import distributed
     except ImportError:
         raise QuadpipeError.single(
-            "missing-package", "running a batch on a Dask cluster needs the `distributed` package",
+            "missing-package",
+            "running a batch on a Dask cluster needs the `distributed` package",
             hint='pip install "dask[distributed]"',
         ) from None
     return distributed
 
 
-def _collect(futures: dict[Any, Job], display: "ProgressDisplay", drain: Callable[[], list]) -> Iterable[JobResult]:
+def _collect(futures: dict[Any, Job], display: ProgressDisplay, drain: Callable[[], list]) -> Iterable[JobResult]:
     """Yield each job's result as its future finishes, showing progress reports meanwhile.
 
     Works for `concurrent.futures` and Dask futures alike (both have `done()` and `result()`).

@@ -9,13 +9,13 @@ boxes and planes are built here with one normal per face (flat shading).
 from __future__ import annotations
 
 import functools
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
-from quadpipe.clip.model import Shape
 from quadpipe.clip.kinematics import rotate
+from quadpipe.clip.model import Shape
 
 CAPSULE_SEGMENTS = (16, 16)
 """trimesh capsule resolution (around the axis, along the caps): 258 vertices."""
@@ -27,7 +27,12 @@ UNBOUNDED_PLANE_HALF_SIZE_M = 50.0
 """Half side drawn for a plane whose size is 0 (MuJoCo's infinite plane), metres."""
 
 _BOX_FACES = (
-    (0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0), (2, 1.0), (2, -1.0),
+    (0, 1.0),
+    (0, -1.0),
+    (1, 1.0),
+    (1, -1.0),
+    (2, 1.0),
+    (2, -1.0),
 )
 """Box faces as (normal axis, normal sign)."""
 
@@ -48,14 +53,16 @@ class TriangleMesh:
     colors: np.ndarray
     faces: np.ndarray
 
-    def translated(self, offset: Sequence[float]) -> "TriangleMesh":
+    def translated(self, offset: Sequence[float]) -> TriangleMesh:
         """The mesh moved by `offset`."""
         return TriangleMesh(self.vertices + np.asarray(offset, dtype=float), self.normals, self.colors, self.faces)
 
-    def transformed(self, pos: Sequence[float], quat: Sequence[float]) -> "TriangleMesh":
+    def transformed(self, pos: Sequence[float], quat: Sequence[float]) -> TriangleMesh:
         """The mesh rotated by `quat` (w, x, y, z), then moved by `pos`."""
         q = np.asarray(quat, dtype=float)
-        return TriangleMesh(rotate(q, self.vertices) + np.asarray(pos, dtype=float), rotate(q, self.normals), self.colors, self.faces)
+        return TriangleMesh(
+            rotate(q, self.vertices) + np.asarray(pos, dtype=float), rotate(q, self.normals), self.colors, self.faces
+        )
 
 
 def shape_mesh(shape: Shape) -> TriangleMesh:
@@ -134,7 +141,9 @@ def _box(size: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def _plane(size: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Plane in local XY facing +Z: size (half x, half y); 0 means unbounded."""
     half_x, half_y = (s if s > 0 else UNBOUNDED_PLANE_HALF_SIZE_M for s in size[:2])
-    vertices = np.array([[-half_x, -half_y, 0.0], [half_x, -half_y, 0.0], [half_x, half_y, 0.0], [-half_x, half_y, 0.0]])
+    vertices = np.array(
+        [[-half_x, -half_y, 0.0], [half_x, -half_y, 0.0], [half_x, half_y, 0.0], [-half_x, half_y, 0.0]]
+    )
     normals = np.tile([0.0, 0.0, 1.0], (4, 1))
     return vertices, normals, np.array([(0, 1, 2), (0, 2, 3)], dtype=np.int64)
 

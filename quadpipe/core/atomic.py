@@ -5,8 +5,9 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
-from typing import IO, Iterator
+from typing import IO
 
 from quadpipe.core.errors import QuadpipeError
 
@@ -91,4 +92,6 @@ def check_writable(path: str | Path) -> None:
     folder = path.parent if str(path.parent) else Path(".")
     if path.is_dir() or not folder.is_dir() or not os.access(folder, os.W_OK):
         problem = "is a folder" if path.is_dir() else "is in a folder that does not exist or is not writable"
-        raise QuadpipeError.single("unwritable-output", f"{str(path)!r} {problem}", file=str(path), hint="check the output path")
+        raise QuadpipeError.single(
+            "unwritable-output", f"{str(path)!r} {problem}", file=str(path), hint="check the output path"
+        )

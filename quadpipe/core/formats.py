@@ -16,11 +16,10 @@ a format whose optional package is missing is reported only when it is used, as
 from __future__ import annotations
 
 import importlib.util
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from importlib import import_module
 from pathlib import Path
-from typing import Callable
 
 from quadpipe.core.errors import QuadpipeError
 

@@ -10,9 +10,10 @@ from __future__ import annotations
 import difflib
 import types
 import typing
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, TypeVar
+from typing import Any, TypeVar
 
 import pydantic
 import yaml
@@ -135,9 +136,7 @@ def load_yaml(path: str | Path) -> YamlDocument:
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
-        raise QuadpipeError.single(
-            "file-unreadable", f"cannot read {path}: {exc.strerror}", file=str(path)
-        ) from None
+        raise QuadpipeError.single("file-unreadable", f"cannot read {path}: {exc.strerror}", file=str(path)) from None
     return parse_yaml(text, str(path))
 
 
@@ -152,7 +151,9 @@ def validate_document(model: type[BaseModelT], doc: YamlDocument) -> BaseModelT:
         raise QuadpipeError(located_issues(exc, model, doc)) from None
 
 
-def located_issues(exc: pydantic.ValidationError, model: type[pydantic.BaseModel], doc: YamlDocument, prefix: PathKey = ()) -> list[Issue]:
+def located_issues(
+    exc: pydantic.ValidationError, model: type[pydantic.BaseModel], doc: YamlDocument, prefix: PathKey = ()
+) -> list[Issue]:
     """Pydantic errors of validating `model` as located issues (unknown-key, missing-key, invalid-value).
 
     Args:
@@ -181,7 +182,9 @@ def dotted(path: Iterable[Any]) -> str:
     return ".".join(str(part) for part in path)
 
 
-def _issue_from_pydantic(err: dict[str, Any], model: type[pydantic.BaseModel], doc: YamlDocument, prefix: PathKey) -> Issue:
+def _issue_from_pydantic(
+    err: dict[str, Any], model: type[pydantic.BaseModel], doc: YamlDocument, prefix: PathKey
+) -> Issue:
     loc = tuple(err["loc"])
     path = prefix + loc
     kind = err["type"]

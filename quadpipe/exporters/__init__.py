@@ -12,36 +12,72 @@ Every write is atomic: a failed export never leaves a partial file behind.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
-from quadpipe.core.atomic import check_writable
 from quadpipe.clip.model import Clip
+from quadpipe.core.atomic import check_writable
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.formats import FileFormat, FormatTable
 
 USD_PACKAGE, USD_MODULE = "usd-core", "pxr"
 """The optional package the OpenUSD formats need, and the module it installs."""
 
-CLIP_FORMATS = FormatTable((
-    FileFormat((".glb",), f"{__name__}.gltf", "export_glb",
-               "glTF 2.0 binary: skinned meshes, joint hierarchy, animation, props, terrain"),
-    FileFormat((".gltf",), f"{__name__}.gltf", "export_gltf",
-               "glTF 2.0 JSON with its .bin buffer beside it (same content as .glb)"),
-    FileFormat((".usda",), f"{__name__}.usd", "export_usda",
-               "OpenUSD text layer: UsdSkel animals, animated props, terrain", USD_PACKAGE, USD_MODULE),
-    FileFormat((".usdc",), f"{__name__}.usd", "export_usdc",
-               "OpenUSD binary (crate) layer: same content as .usda", USD_PACKAGE, USD_MODULE),
-    FileFormat((".usdz",), f"{__name__}.usd", "export_usdz",
-               "OpenUSD package: the .usdc layer in a zip, for AR Quick Look and sharing", USD_PACKAGE, USD_MODULE),
-    FileFormat((".bvh",), f"{__name__}.bvh", "export_bvh",
-               "BVH motion capture: one animal's skeleton (cm, y up) and joint rotations per frame"),
-    FileFormat((".npz",), f"{__name__}.npz", "export_npz",
-               "Raw clip for analysis: every pose array, loadable with numpy or quadpipe"),
-))
+CLIP_FORMATS = FormatTable(
+    (
+        FileFormat(
+            (".glb",),
+            f"{__name__}.gltf",
+            "export_glb",
+            "glTF 2.0 binary: skinned meshes, joint hierarchy, animation, props, terrain",
+        ),
+        FileFormat(
+            (".gltf",),
+            f"{__name__}.gltf",
+            "export_gltf",
+            "glTF 2.0 JSON with its .bin buffer beside it (same content as .glb)",
+        ),
+        FileFormat(
+            (".usda",),
+            f"{__name__}.usd",
+            "export_usda",
+            "OpenUSD text layer: UsdSkel animals, animated props, terrain",
+            USD_PACKAGE,
+            USD_MODULE,
+        ),
+        FileFormat(
+            (".usdc",),
+            f"{__name__}.usd",
+            "export_usdc",
+            "OpenUSD binary (crate) layer: same content as .usda",
+            USD_PACKAGE,
+            USD_MODULE,
+        ),
+        FileFormat(
+            (".usdz",),
+            f"{__name__}.usd",
+            "export_usdz",
+            "OpenUSD package: the .usdc layer in a zip, for AR Quick Look and sharing",
+            USD_PACKAGE,
+            USD_MODULE,
+        ),
+        FileFormat(
+            (".bvh",),
+            f"{__name__}.bvh",
+            "export_bvh",
+            "BVH motion capture: one animal's skeleton (cm, y up) and joint rotations per frame",
+        ),
+        FileFormat(
+            (".npz",),
+            f"{__name__}.npz",
+            "export_npz",
+            "Raw clip for analysis: every pose array, loadable with numpy or quadpipe",
+        ),
+    )
+)
 """Clip files quadpipe writes: suffix -> format (each writer takes the clip and the path)."""
 
 Exporter = Callable[[Clip, Path], None]
@@ -94,13 +130,18 @@ def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False) ->
     clip = _exportable(clip, allow_partial, path)
     if path.is_dir():
         raise QuadpipeError.single(
-            "unwritable-output", f"{str(path)!r} is a folder", file=str(path), hint="give a file name, e.g. clip" + path.suffix.lower()
+            "unwritable-output",
+            f"{str(path)!r} is a folder",
+            file=str(path),
+            hint="give a file name, e.g. clip" + path.suffix.lower(),
         )
     try:
         writer(clip, path)
     except OSError as exc:
         raise QuadpipeError.single(
-            "unwritable-output", f"cannot write {str(path)!r}: {exc.strerror or exc}", file=str(path),
+            "unwritable-output",
+            f"cannot write {str(path)!r}: {exc.strerror or exc}",
+            file=str(path),
             hint="check that the folder exists and is writable, and that the disk is not full",
         ) from None
     return path
@@ -148,18 +189,28 @@ def _exportable(clip: Clip, allow_partial: bool, path: Path) -> Clip:
     """The clip to write: refuse empty or blown-up clips, or trim the latter with `allow_partial`."""
     status = clip.metadata.get("status", "ok")
     if clip.frame_count == 0:
-        raise QuadpipeError.single("bad-clip", "the clip has no frames", file=str(path), hint="simulate at least one frame")
+        raise QuadpipeError.single(
+            "bad-clip", "the clip has no frames", file=str(path), hint="simulate at least one frame"
+        )
     finite = finite_frames(clip)
     if status == "ok" and finite == clip.frame_count:
         return clip
     if not allow_partial:
-        why = f"the simulation did not end well ({status})" if status != "ok" else f"frame {finite} holds NaN or infinite poses"
+        why = (
+            f"the simulation did not end well ({status})"
+            if status != "ok"
+            else f"frame {finite} holds NaN or infinite poses"
+        )
         raise QuadpipeError.single(
-            "bad-clip", f"refusing to export a broken clip: {why}", file=str(path),
+            "bad-clip",
+            f"refusing to export a broken clip: {why}",
+            file=str(path),
             hint="fix the scene or controller, or export the frames before the failure (allow_partial=True; CLI: --allow-partial)",
         )
     if finite == 0:
-        raise QuadpipeError.single("bad-clip", "the clip's first frame is already broken: nothing to export", file=str(path))
+        raise QuadpipeError.single(
+            "bad-clip", "the clip's first frame is already broken: nothing to export", file=str(path)
+        )
     return _first_frames(clip, finite)
 
 
@@ -176,11 +227,18 @@ def finite_frames(clip: Clip) -> int:
 def _first_frames(clip: Clip, count: int) -> Clip:
     """A copy of `clip` keeping its first `count` frames (metadata says so)."""
     animals = [
-        dataclasses.replace(track, positions=track.positions[:count], rotations=track.rotations[:count],
-                            foot_contacts=track.foot_contacts[:count])
+        dataclasses.replace(
+            track,
+            positions=track.positions[:count],
+            rotations=track.rotations[:count],
+            foot_contacts=track.foot_contacts[:count],
+        )
         for track in clip.animals
     ]
-    props = [dataclasses.replace(track, positions=track.positions[:count], rotations=track.rotations[:count]) for track in clip.props]
+    props = [
+        dataclasses.replace(track, positions=track.positions[:count], rotations=track.rotations[:count])
+        for track in clip.props
+    ]
     metadata = {**clip.metadata, "exported_frames": f"{count} of {clip.frame_count}"}
     sensors = {name: values[:count] for name, values in clip.sensors.items()}
     return dataclasses.replace(clip, animals=animals, props=props, sensors=sensors, metadata=metadata)

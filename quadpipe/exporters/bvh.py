@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from quadpipe.core.atomic import write_text
-from quadpipe.clip.model import AnimalTrack, Clip
-from quadpipe.core.errors import QuadpipeError
 from quadpipe.clip.kinematics import local_poses, quat_to_y_up, rest_offsets, to_matrix, to_y_up
+from quadpipe.clip.model import AnimalTrack, Clip
+from quadpipe.core.atomic import write_text
+from quadpipe.core.errors import QuadpipeError
 
 CM_PER_M = 100.0
 
@@ -77,14 +77,23 @@ def _write_joint(track: AnimalTrack, index: int, depth: int, lines: list[str]) -
     pad = INDENT * depth
     offset = to_y_up(rest_offsets(track)[index]) * CM_PER_M
     root = track.parents[index] < 0
-    lines += [f"{pad}{'ROOT' if root else 'JOINT'} {track.roles[index]}", f"{pad}{{",
-              f"{pad}{INDENT}OFFSET {_numbers(offset)}", f"{pad}{INDENT}{ROOT_CHANNELS if root else JOINT_CHANNELS}"]
+    lines += [
+        f"{pad}{'ROOT' if root else 'JOINT'} {track.roles[index]}",
+        f"{pad}{{",
+        f"{pad}{INDENT}OFFSET {_numbers(offset)}",
+        f"{pad}{INDENT}{ROOT_CHANNELS if root else JOINT_CHANNELS}",
+    ]
     children = np.flatnonzero(track.parents == index)
     for child in children:
         _write_joint(track, int(child), depth + 1, lines)
     if children.size == 0:
         end = to_y_up(track.rest_end[index] - track.rest_start[index]) * CM_PER_M
-        lines += [f"{pad}{INDENT}End Site", f"{pad}{INDENT}{{", f"{pad}{INDENT * 2}OFFSET {_numbers(end)}", f"{pad}{INDENT}}}"]
+        lines += [
+            f"{pad}{INDENT}End Site",
+            f"{pad}{INDENT}{{",
+            f"{pad}{INDENT * 2}OFFSET {_numbers(end)}",
+            f"{pad}{INDENT}}}",
+        ]
     lines.append(f"{pad}}}")
 
 

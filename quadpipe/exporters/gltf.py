@@ -22,11 +22,11 @@ from typing import Any
 
 import numpy as np
 
-from quadpipe.core.version import __version__
-from quadpipe.core.atomic import write_bytes
-from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
 from quadpipe.clip.kinematics import continuous, local_poses, normalize, quat_to_y_up, rest_offsets, to_y_up
 from quadpipe.clip.meshes import TriangleMesh, merge, shape_mesh, shapes_mesh
+from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
+from quadpipe.core.atomic import write_bytes
+from quadpipe.core.version import __version__
 
 GLB_MAGIC = 0x46546C67
 GLB_VERSION = 2
@@ -220,8 +220,13 @@ def _add_prop(doc: _Document, prop: PropTrack) -> None:
     positions = to_y_up(prop.positions)
     rotations = _xyzw(quat_to_y_up(continuous(normalize(prop.rotations))))
     node = doc.node(
-        {"name": prop.name, "mesh": mesh, "translation": [float(v) for v in positions[0]],
-         "rotation": [float(v) for v in rotations[0]], "extras": {"mass_kg": prop.mass_kg}},
+        {
+            "name": prop.name,
+            "mesh": mesh,
+            "translation": [float(v) for v in positions[0]],
+            "rotation": [float(v) for v in rotations[0]],
+            "extras": {"mass_kg": prop.mass_kg},
+        },
         root=True,
     )
     doc.animate(node, "translation", positions)

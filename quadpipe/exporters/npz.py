@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from quadpipe.core.atomic import write_bytes
 from quadpipe.clip.model import AnimalTrack, Clip, PropTrack, Shape
+from quadpipe.core.atomic import write_bytes
 from quadpipe.core.errors import QuadpipeError
 
 FORMAT_NAME = "quadpipe-clip"
@@ -37,7 +37,13 @@ PROP_ARRAYS = ("positions", "rotations")
 
 
 def _shape_json(shape: Shape) -> dict[str, Any]:
-    return {"kind": shape.kind, "size": list(shape.size), "pos": list(shape.pos), "quat": list(shape.quat), "rgba": list(shape.rgba)}
+    return {
+        "kind": shape.kind,
+        "size": list(shape.size),
+        "pos": list(shape.pos),
+        "quat": list(shape.quat),
+        "rgba": list(shape.rgba),
+    }
 
 
 def _shape(data: dict[str, Any]) -> Shape:
@@ -52,8 +58,11 @@ def _header(clip: Clip) -> dict[str, Any]:
         "metadata": dict(clip.metadata),
         "animals": [
             {
-                "name": track.name, "species": track.species, "roles": list(track.roles),
-                "pelvis_height": float(track.pelvis_height), "mass_kg": float(track.mass_kg),
+                "name": track.name,
+                "species": track.species,
+                "roles": list(track.roles),
+                "pelvis_height": float(track.pelvis_height),
+                "mass_kg": float(track.mass_kg),
                 "shapes": [[_shape_json(shape) for shape in shapes] for shapes in track.shapes],
             }
             for track in clip.animals
@@ -109,7 +118,9 @@ def load_clip(path: str | Path) -> Clip:
             return _clip(header, archive)
     except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile) as exc:
         raise QuadpipeError.single(
-            "bad-clip-file", f"{str(path)!r} is not a readable quadpipe clip: {exc}", file=str(path),
+            "bad-clip-file",
+            f"{str(path)!r} is not a readable quadpipe clip: {exc}",
+            file=str(path),
             hint="clip archives are written by `quadpipe` with an .npz output",
         ) from None
 
@@ -127,16 +138,23 @@ def _check_header(path: Path, header: dict[str, Any]) -> None:
 def _clip(header: dict[str, Any], archive: Any) -> Clip:
     animals = [
         AnimalTrack(
-            name=info["name"], species=info["species"], roles=tuple(info["roles"]),
+            name=info["name"],
+            species=info["species"],
+            roles=tuple(info["roles"]),
             shapes=[[_shape(s) for s in shapes] for shapes in info["shapes"]],
-            pelvis_height=info["pelvis_height"], mass_kg=info["mass_kg"],
+            pelvis_height=info["pelvis_height"],
+            mass_kg=info["mass_kg"],
             **{name: archive[f"animal{i}.{name}"] for name in ANIMAL_ARRAYS},
         )
         for i, info in enumerate(header["animals"])
     ]
     props = [
-        PropTrack(name=info["name"], shape=_shape(info["shape"]), mass_kg=info["mass_kg"],
-                  **{name: archive[f"prop{i}.{name}"] for name in PROP_ARRAYS})
+        PropTrack(
+            name=info["name"],
+            shape=_shape(info["shape"]),
+            mass_kg=info["mass_kg"],
+            **{name: archive[f"prop{i}.{name}"] for name in PROP_ARRAYS},
+        )
         for i, info in enumerate(header["props"])
     ]
     return Clip(

@@ -26,11 +26,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from quadpipe.core.version import __version__
-from quadpipe.core.atomic import atomic_path
-from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
 from quadpipe.clip.kinematics import continuous, local_poses, normalize, rest_offsets
 from quadpipe.clip.meshes import TriangleMesh, shape_mesh, shapes_mesh
+from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
+from quadpipe.core.atomic import atomic_path
+from quadpipe.core.version import __version__
 
 if TYPE_CHECKING:
     from pxr import Usd, UsdGeom
@@ -43,7 +43,7 @@ PACKAGED_LAYER_MTIME = time.mktime((2000, 1, 1, 0, 0, 0, 0, 0, -1))
 same clip gives the same bytes."""
 
 
-def build_stage(clip: Clip) -> "Usd.Stage":
+def build_stage(clip: Clip) -> Usd.Stage:
     """An in-memory stage holding the clip."""
     from pxr import Usd, UsdGeom
 
@@ -112,7 +112,7 @@ def _quatf_array(quats: np.ndarray):
     return Vt.QuatfArray.FromNumpy(np.ascontiguousarray(np.roll(quats, -1, axis=-1), dtype=np.float32))
 
 
-def _add_animal(stage: "Usd.Stage", path: str, track: AnimalTrack) -> None:
+def _add_animal(stage: Usd.Stage, path: str, track: AnimalTrack) -> None:
     from pxr import UsdGeom, UsdSkel, Vt
 
     UsdSkel.Root.Define(stage, path)
@@ -141,7 +141,7 @@ def _add_animal(stage: "Usd.Stage", path: str, track: AnimalTrack) -> None:
             _bind_rigidly(_add_mesh(stage, f"{path}/meshes/{role}", mesh), skeleton, index)
 
 
-def _bind_rigidly(mesh: "UsdGeom.Mesh", skeleton, joint: int) -> None:
+def _bind_rigidly(mesh: UsdGeom.Mesh, skeleton, joint: int) -> None:
     """Skin a mesh wholly to one joint (constant joint influence, weight 1)."""
     from pxr import Gf, UsdSkel, Vt
 
@@ -152,7 +152,7 @@ def _bind_rigidly(mesh: "UsdGeom.Mesh", skeleton, joint: int) -> None:
     binding.CreateGeomBindTransformAttr(Gf.Matrix4d(1.0))
 
 
-def _add_mesh(stage: "Usd.Stage", path: str, mesh: TriangleMesh) -> "UsdGeom.Mesh":
+def _add_mesh(stage: Usd.Stage, path: str, mesh: TriangleMesh) -> UsdGeom.Mesh:
     """A polygon mesh prim (triangles, vertex normals, display colour), never subdivided."""
     from pxr import UsdGeom, Vt
 
@@ -173,7 +173,7 @@ def _add_mesh(stage: "Usd.Stage", path: str, mesh: TriangleMesh) -> "UsdGeom.Mes
     return prim
 
 
-def _add_prop(stage: "Usd.Stage", path: str, prop: PropTrack) -> None:
+def _add_prop(stage: Usd.Stage, path: str, prop: PropTrack) -> None:
     from pxr import Gf, UsdGeom
 
     xform = UsdGeom.Xform.Define(stage, path)
@@ -186,7 +186,7 @@ def _add_prop(stage: "Usd.Stage", path: str, prop: PropTrack) -> None:
     _add_mesh(stage, f"{path}/mesh", shape_mesh(prop.shape))
 
 
-def _export_layer(stage: "Usd.Stage", target: Path) -> None:
+def _export_layer(stage: Usd.Stage, target: Path) -> None:
     """Write the stage's root layer to `target`, in the format `target`'s suffix names."""
     from pxr import Tf
 

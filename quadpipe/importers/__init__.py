@@ -8,26 +8,33 @@ format, write a module with a reader returning a `RawSkeleton` and add an entry 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Callable
 
-from quadpipe.core.errors import QuadpipeError
-from quadpipe.core.formats import FileFormat, FormatTable
 from quadpipe.anatomy.limits import JointLimits
 from quadpipe.anatomy.rolemap import RoleGuess, guess_roles, resolve_roles, write_role_map
 from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble
+from quadpipe.core.errors import QuadpipeError
+from quadpipe.core.formats import FileFormat, FormatTable
 
-SKELETON_FORMATS = FormatTable((
-    FileFormat((".xml",), f"{__name__}.quadpipe_xml", "read_skeleton", "quadpipe skeleton XML (the thesis's exchange format)"),
-    FileFormat((".ma",), f"{__name__}.maya_ascii", "read_skeleton", "Maya ASCII scene: its joints"),
-    FileFormat((".bvh",), f"{__name__}.bvh", "read_skeleton", "BVH motion capture: its joint hierarchy"),
-))
+SKELETON_FORMATS = FormatTable(
+    (
+        FileFormat(
+            (".xml",),
+            f"{__name__}.quadpipe_xml",
+            "read_skeleton",
+            "quadpipe skeleton XML (the thesis's exchange format)",
+        ),
+        FileFormat((".ma",), f"{__name__}.maya_ascii", "read_skeleton", "Maya ASCII scene: its joints"),
+        FileFormat((".bvh",), f"{__name__}.bvh", "read_skeleton", "BVH motion capture: its joint hierarchy"),
+    )
+)
 """Skeleton files: suffix -> reader returning a `RawSkeleton`."""
 
-LIMITS_FORMATS = FormatTable((
-    FileFormat((".csv", ".tsv"), f"{__name__}.limits_table", "read_limits", "joint-limit table, thesis columns"),
-))
+LIMITS_FORMATS = FormatTable(
+    (FileFormat((".csv", ".tsv"), f"{__name__}.limits_table", "read_limits", "joint-limit table, thesis columns"),)
+)
 """Joint-limit tables: suffix -> reader returning `JointLimits`."""
 
 

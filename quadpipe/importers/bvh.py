@@ -33,8 +33,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import NoReturn
 
-from quadpipe.core.errors import QuadpipeError
 from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
+from quadpipe.core.errors import QuadpipeError
 
 CHANNEL_NAMES = {f"{axis}{kind}" for axis in "xyz" for kind in ("position", "rotation")}
 """Valid CHANNELS entries, lower-cased."""
@@ -78,8 +78,9 @@ class _Parser:
 
     def fail(self, token: _Token | None, code: str, message: str, hint: str | None = None) -> NoReturn:
         line = token.line if token else max(len(self.lines), 1)
-        raise QuadpipeError.single(code, message, file=self.source, line=line,
-                                   column=token.column if token else None, hint=hint)
+        raise QuadpipeError.single(
+            code, message, file=self.source, line=line, column=token.column if token else None, hint=hint
+        )
 
     def peek(self) -> _Token | None:
         return self.tokens[self.index] if self.index < len(self.tokens) else None
@@ -96,8 +97,12 @@ class _Parser:
     def expect_open(self, inside: _Joint) -> None:
         token = self.take(inside)
         if token.text != "{":
-            self.fail(token, "bvh-syntax", f"expected '{{' after {inside.name!r}, found {token.text!r}",
-                      "each ROOT, JOINT and End Site line is followed by a '{' line")
+            self.fail(
+                token,
+                "bvh-syntax",
+                f"expected '{{' after {inside.name!r}, found {token.text!r}",
+                "each ROOT, JOINT and End Site line is followed by a '{' line",
+            )
 
     def rest_of_line(self, keyword: _Token) -> str:
         """The text after `keyword` on its line (a joint name); a trailing `{` is left as a token."""
@@ -116,8 +121,9 @@ class _Parser:
         except ValueError:
             value = math.nan
         if not math.isfinite(value):
-            self.fail(token, "bvh-bad-number", f"{token.text!r} is not a number ({what})",
-                      "write a plain decimal number")
+            self.fail(
+                token, "bvh-bad-number", f"{token.text!r} is not a number ({what})", "write a plain decimal number"
+            )
         return value
 
     def offset(self, inside: _Joint, what: str) -> Vector:
@@ -126,8 +132,12 @@ class _Parser:
     def parse(self) -> list[_Joint]:
         first = self.peek()
         if first is None or first.text.upper() != "HIERARCHY":
-            self.fail(first, "bvh-missing-hierarchy", "a BVH file starts with the word HIERARCHY",
-                      "is this a BVH file? the skeleton must come first, before MOTION")
+            self.fail(
+                first,
+                "bvh-missing-hierarchy",
+                "a BVH file starts with the word HIERARCHY",
+                "is this a BVH file? the skeleton must come first, before MOTION",
+            )
         self.index += 1
         while (token := self.peek()) is not None:
             keyword = token.text.upper()
@@ -137,8 +147,12 @@ class _Parser:
             if keyword == "ROOT":
                 self.joint(token, None)
             elif token.text == "}":
-                self.fail(token, "bvh-unbalanced-braces", "this '}' closes nothing",
-                          "remove it, or find the '{' it should close")
+                self.fail(
+                    token,
+                    "bvh-unbalanced-braces",
+                    "this '}' closes nothing",
+                    "remove it, or find the '{' it should close",
+                )
             else:
                 self.fail(token, "bvh-syntax", f"expected ROOT or MOTION, found {token.text!r}")
         if not self.joints:
@@ -166,18 +180,29 @@ class _Parser:
             elif keyword_text == "END":
                 self.end_site(token, joint)
             elif keyword_text in ("ROOT", "MOTION", "HIERARCHY"):
-                self.fail(token, "bvh-unbalanced-braces",
-                          f"joint {joint.name!r} (opened at line {joint.line}) is not closed before {token.text}",
-                          "add the missing '}'")
+                self.fail(
+                    token,
+                    "bvh-unbalanced-braces",
+                    f"joint {joint.name!r} (opened at line {joint.line}) is not closed before {token.text}",
+                    "add the missing '}'",
+                )
             else:
-                self.fail(token, "bvh-syntax", f"unexpected {token.text!r} in joint {joint.name!r}",
-                          "a joint holds OFFSET, CHANNELS, JOINT and End Site")
+                self.fail(
+                    token,
+                    "bvh-syntax",
+                    f"unexpected {token.text!r} in joint {joint.name!r}",
+                    "a joint holds OFFSET, CHANNELS, JOINT and End Site",
+                )
         self.require_offset(token, joint)
 
     def require_offset(self, token: _Token, joint: _Joint) -> None:
         if joint.position is None:
-            self.fail(token, "bvh-syntax", f"joint {joint.name!r} has no OFFSET before this point",
-                      "write OFFSET x y z right after the joint's '{'")
+            self.fail(
+                token,
+                "bvh-syntax",
+                f"joint {joint.name!r} has no OFFSET before this point",
+                "write OFFSET x y z right after the joint's '{'",
+            )
 
     def channels(self, keyword: _Token, joint: _Joint) -> None:
         if joint.channels_seen:
@@ -185,20 +210,31 @@ class _Parser:
         joint.channels_seen = True
         count_token = self.take(joint)
         if not count_token.text.isdigit():
-            self.fail(count_token, "bvh-bad-channels", f"CHANNELS needs a count, found {count_token.text!r}",
-                      "write CHANNELS 3 Zrotation Xrotation Yrotation")
+            self.fail(
+                count_token,
+                "bvh-bad-channels",
+                f"CHANNELS needs a count, found {count_token.text!r}",
+                "write CHANNELS 3 Zrotation Xrotation Yrotation",
+            )
         names = []
         while (token := self.peek()) is not None and token.line == keyword.line:
             names.append(token)
             self.index += 1
         if len(names) != int(count_token.text):
-            self.fail(count_token, "bvh-bad-channels",
-                      f"CHANNELS says {count_token.text} but lists {len(names)} channel(s)",
-                      "the count must match the channel names on the same line")
+            self.fail(
+                count_token,
+                "bvh-bad-channels",
+                f"CHANNELS says {count_token.text} but lists {len(names)} channel(s)",
+                "the count must match the channel names on the same line",
+            )
         for name in names:
             if name.text.lower() not in CHANNEL_NAMES:
-                self.fail(name, "bvh-bad-channels", f"{name.text!r} is not a channel",
-                          "channels are Xposition, Yposition, Zposition, Xrotation, Yrotation, Zrotation")
+                self.fail(
+                    name,
+                    "bvh-bad-channels",
+                    f"{name.text!r} is not a channel",
+                    "channels are Xposition, Yposition, Zposition, Xrotation, Yrotation, Zrotation",
+                )
 
     def end_site(self, keyword: _Token, joint: _Joint) -> None:
         self.require_offset(keyword, joint)
@@ -206,20 +242,27 @@ class _Parser:
         if site.text.upper() != "SITE" or site.line != keyword.line:
             self.fail(keyword, "bvh-syntax", "expected 'End Site'")
         if joint.end is not None:
-            self.fail(keyword, "bvh-syntax", f"joint {joint.name!r} has a second End Site",
-                      "keep one End Site per joint")
+            self.fail(
+                keyword, "bvh-syntax", f"joint {joint.name!r} has a second End Site", "keep one End Site per joint"
+            )
         self.expect_open(joint)
         offset_token = self.take(joint)
         if offset_token.text.upper() != "OFFSET":
-            self.fail(offset_token, "bvh-syntax",
-                      f"expected OFFSET in the End Site of {joint.name!r}, found {offset_token.text!r}")
+            self.fail(
+                offset_token,
+                "bvh-syntax",
+                f"expected OFFSET in the End Site of {joint.name!r}, found {offset_token.text!r}",
+            )
         offset = self.offset(joint, f"End Site of {joint.name!r}")
         joint.end = tuple(p + d for p, d in zip(joint.position, offset))  # type: ignore[arg-type, assignment]
         closing = self.take(joint)
         if closing.text != "}":
-            self.fail(closing, "bvh-unbalanced-braces",
-                      f"the End Site of {joint.name!r} is not closed: found {closing.text!r} where '}}' belongs",
-                      "an End Site holds only its OFFSET")
+            self.fail(
+                closing,
+                "bvh-unbalanced-braces",
+                f"the End Site of {joint.name!r} is not closed: found {closing.text!r} where '}}' belongs",
+                "an End Site holds only its OFFSET",
+            )
 
 
 def read_skeleton(path: str | Path) -> RawSkeleton:

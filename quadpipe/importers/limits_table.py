@@ -14,8 +14,8 @@ import csv
 import io
 from pathlib import Path
 
-from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.anatomy.limits import JointLimit, JointLimits, from_degrees
+from quadpipe.core.errors import Location, QuadpipeError
 
 COLUMNS = ("bone", "twistmin", "twistmax", "swing1", "swing2")
 COLUMN_ALIASES = {"os": "bone", "name": "bone", "role": "bone"}

@@ -28,27 +28,36 @@ from __future__ import annotations
 import bisect
 import math
 import re
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterator, NoReturn
+from typing import NoReturn
 
 import numpy as np
 
-from quadpipe.core.errors import QuadpipeError, did_you_mean
 from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
+from quadpipe.core.errors import QuadpipeError, did_you_mean
 
 MAYA_HEADER = "//Maya"
 """Maya refuses `.ma` files that do not start with these six characters."""
 
 LINEAR_UNITS: dict[str, tuple[str, float]] = {
-    "mm": ("mm", 1.0), "millimeter": ("mm", 1.0),
-    "cm": ("cm", 1.0), "centimeter": ("cm", 1.0),
-    "m": ("m", 1.0), "meter": ("m", 1.0),
-    "in": ("in", 1.0), "inch": ("in", 1.0),
-    "ft": ("ft", 1.0), "foot": ("ft", 1.0),
-    "yd": ("m", 0.9144), "yard": ("m", 0.9144),
-    "km": ("m", 1000.0), "kilometer": ("m", 1000.0),
-    "mi": ("m", 1609.344), "mile": ("m", 1609.344),
+    "mm": ("mm", 1.0),
+    "millimeter": ("mm", 1.0),
+    "cm": ("cm", 1.0),
+    "centimeter": ("cm", 1.0),
+    "m": ("m", 1.0),
+    "meter": ("m", 1.0),
+    "in": ("in", 1.0),
+    "inch": ("in", 1.0),
+    "ft": ("ft", 1.0),
+    "foot": ("ft", 1.0),
+    "yd": ("m", 0.9144),
+    "yard": ("m", 0.9144),
+    "km": ("m", 1000.0),
+    "kilometer": ("m", 1000.0),
+    "mi": ("m", 1609.344),
+    "mile": ("m", 1609.344),
 }
 """Maya's linear unit names -> (quadpipe unit, factor that turns file values into it)."""
 
@@ -62,8 +71,15 @@ TRACKED_TYPES = ("joint", "transform")
 """Node types that make up the skeleton's DAG; every other node is skipped."""
 
 _VECTORS = {
-    "t": "translate", "r": "rotate", "s": "scale", "jo": "jointOrient", "ra": "rotateAxis",
-    "rp": "rotatePivot", "sp": "scalePivot", "rpt": "rotatePivotTranslate", "spt": "scalePivotTranslate",
+    "t": "translate",
+    "r": "rotate",
+    "s": "scale",
+    "jo": "jointOrient",
+    "ra": "rotateAxis",
+    "rp": "rotatePivot",
+    "sp": "scalePivot",
+    "rpt": "rotatePivotTranslate",
+    "spt": "scalePivotTranslate",
 }
 _SHEAR_PARTS = {"shxy": "shearXY", "shxz": "shearXZ", "shyz": "shearYZ"}
 ANGULAR_ATTRIBUTES = {"r", "jo", "ra"}
@@ -195,12 +211,19 @@ class _Reader:
             text = _ESCAPE.sub(lambda m: _ESCAPES.get(m.group(1), m.group(1)), match.group()[1:-1])
             return Token(text, True, line, column)
         if kind == "open_string":
-            self.fail(Token('"', False, line, column), "ma-unterminated-string",
-                      "this string has no closing quote on its line",
-                      'close the string with " (write a line break inside a string as \\n)')
+            self.fail(
+                Token('"', False, line, column),
+                "ma-unterminated-string",
+                "this string has no closing quote on its line",
+                'close the string with " (write a line break inside a string as \\n)',
+            )
         if kind == "open_comment":
-            self.fail(Token("/*", False, line, column), "ma-unterminated-comment",
-                      "this /* comment is never closed", "close it with */")
+            self.fail(
+                Token("/*", False, line, column),
+                "ma-unterminated-comment",
+                "this /* comment is never closed",
+                "close it with */",
+            )
         return Token(match.group(), False, line, column)
 
     def statements(self) -> Iterator[list[Token]]:
@@ -223,9 +246,12 @@ class _Reader:
             pending.append(self.token(match))
             skipping = self.ignorable(pending)
         if pending:
-            self.fail(pending[0], "ma-truncated",
-                      f"the file ends inside this {pending[0].text!r} statement (no closing ';')",
-                      "the file was cut short: save or export it again")
+            self.fail(
+                pending[0],
+                "ma-truncated",
+                f"the file ends inside this {pending[0].text!r} statement (no closing ';')",
+                "the file was cut short: save or export it again",
+            )
 
     def ignorable(self, pending: list[Token]) -> bool:
         """Whether a statement begun with these tokens cannot matter to the skeleton."""
@@ -251,19 +277,22 @@ class _Reader:
                 self.set_linear_unit(value)
             elif flag.text in ("-a", "-angle"):
                 if value.text not in ANGULAR_UNITS:
-                    self.fail(value, "ma-bad-units", f"angular unit {value.text!r} is unknown",
-                              "use degree or radian")
+                    self.fail(value, "ma-bad-units", f"angular unit {value.text!r} is unknown", "use degree or radian")
                 self.radians_per_unit = ANGULAR_UNITS[value.text]
 
     def set_linear_unit(self, value: Token) -> None:
         if value.text not in LINEAR_UNITS:
-            self.fail(value, "ma-bad-units", f"linear unit {value.text!r} is unknown",
-                      did_you_mean(value.text, LINEAR_UNITS))
+            self.fail(
+                value, "ma-bad-units", f"linear unit {value.text!r} is unknown", did_you_mean(value.text, LINEAR_UNITS)
+            )
         unit, factor = LINEAR_UNITS[value.text]
         if self.linear_set_at is not None and (unit, factor) != (self.unit, self.unit_factor):
-            self.fail(value, "ma-mixed-units",
-                      f"the linear unit changes to {value.text!r} after lengths were set (line {self.linear_set_at})",
-                      "keep one currentUnit statement at the top of the file")
+            self.fail(
+                value,
+                "ma-mixed-units",
+                f"the linear unit changes to {value.text!r} after lengths were set (line {self.linear_set_at})",
+                "keep one currentUnit statement at the top of the file",
+            )
         self.unit, self.unit_factor = unit, factor
 
     def create_node(self, statement: list[Token]) -> None:
@@ -275,8 +304,12 @@ class _Reader:
             self.current = None
             return
         if name is None:
-            self.fail(statement[0], "ma-syntax", f"createNode {kind} without a -n name",
-                      'name the node: createNode joint -n "L_Hip";')
+            self.fail(
+                statement[0],
+                "ma-syntax",
+                f"createNode {kind} without a -n name",
+                'name the node: createNode joint -n "L_Hip";',
+            )
         parent = self.resolve(parent_ref, what="parent") if parent_ref is not None else None
         node = _Node(name.text, kind, parent, statement[0].line)
         self.nodes.append(node)
@@ -295,14 +328,18 @@ class _Reader:
         node = self.current if not node_ref else self.find(node_ref)
         if node is None:
             return
-        values = _strip_type_flag(statement[attr_index + 1:])
+        values = _strip_type_flag(statement[attr_index + 1 :])
         if attr in ATTRIBUTES:
             self.set_vector(node, target_token, attr, values)
         elif attr in ROTATE_ORDER_NAMES:
             number = self.number(self.single(target_token, values))
             if number not in range(len(ROTATE_ORDERS)):
-                self.fail(values[0], "ma-bad-value", f"rotate order {values[0].text} is not 0-5",
-                          "0 xyz, 1 yzx, 2 zxy, 3 xzy, 4 yxz, 5 zyx")
+                self.fail(
+                    values[0],
+                    "ma-bad-value",
+                    f"rotate order {values[0].text} is not 0-5",
+                    "0 xyz, 1 yzx, 2 zxy, 3 xzy, 4 yxz, 5 zyx",
+                )
             node.rotate_order = ROTATE_ORDERS[int(number)]
         elif attr in SSC_NAMES:
             node.scale_compensate = self.boolean(self.single(target_token, values))
@@ -311,9 +348,12 @@ class _Reader:
         key, component = ATTRIBUTES[attr]
         wanted = 1 if component is not None else 3
         if len(values) != wanted:
-            self.fail(values[0] if values else target, "ma-bad-value",
-                      f"'.{attr}' takes {wanted} number(s), found {len(values)}",
-                      f'write it as setAttr ".{attr}"' + (' -type "double3" x y z;' if wanted == 3 else " value;"))
+            self.fail(
+                values[0] if values else target,
+                "ma-bad-value",
+                f"'.{attr}' takes {wanted} number(s), found {len(values)}",
+                f'write it as setAttr ".{attr}"' + (' -type "double3" x y z;' if wanted == 3 else " value;"),
+            )
         scale = self.radians_per_unit if key in ANGULAR_ATTRIBUTES else 1.0
         numbers = [self.number(v) * scale for v in values]
         current = list(node.vector(key))
@@ -334,16 +374,20 @@ class _Reader:
         names = [t for t in statement[1:] if not t.text.startswith("-")]
         for child in names[:-1]:
             if self.find(child.text) is not None:
-                self.fail(child, "ma-unsupported-command",
-                          f"'parent' moves {child.text!r} after it was created; this reader does not follow that",
-                          "create the node under its parent with createNode -p (re-save the file from Maya)")
+                self.fail(
+                    child,
+                    "ma-unsupported-command",
+                    f"'parent' moves {child.text!r} after it was created; this reader does not follow that",
+                    "create the node under its parent with createNode -p (re-save the file from Maya)",
+                )
 
     # -- values and names -----------------------------------------------------------------
 
     def single(self, target: Token, values: list[Token]) -> Token:
         if len(values) != 1:
-            self.fail(values[0] if values else target, "ma-bad-value",
-                      f"{target.text!r} takes one value, found {len(values)}")
+            self.fail(
+                values[0] if values else target, "ma-bad-value", f"{target.text!r} takes one value, found {len(values)}"
+            )
         return values[0]
 
     def number(self, token: Token) -> float:
@@ -376,14 +420,18 @@ class _Reader:
     def resolve(self, token: Token, *, what: str) -> _Node:
         matches = self.matches(token.text)
         if not matches:
-            self.fail(token, "ma-unknown-parent",
-                      f"{what} {token.text!r} is not a joint or transform created earlier in the file",
-                      did_you_mean(token.text.rsplit("|", 1)[-1], {n.name for n in self.nodes}, listing=False)
-                      or "create the parent before its children")
+            self.fail(
+                token,
+                "ma-unknown-parent",
+                f"{what} {token.text!r} is not a joint or transform created earlier in the file",
+                did_you_mean(token.text.rsplit("|", 1)[-1], {n.name for n in self.nodes}, listing=False)
+                or "create the parent before its children",
+            )
         if len(matches) > 1:
             paths = ", ".join(n.path for n in matches)
-            self.fail(token, "ma-ambiguous-name", f"{what} {token.text!r} could be any of {paths}",
-                      "name it by its DAG path")
+            self.fail(
+                token, "ma-ambiguous-name", f"{what} {token.text!r} could be any of {paths}", "name it by its DAG path"
+            )
         return matches[0]
 
     def link_inverse_scales(self) -> None:
@@ -423,8 +471,12 @@ class _Reader:
                 )
             )
         if not records:
-            raise QuadpipeError.single("empty-skeleton", "the file creates no joint nodes", file=self.source,
-                                       hint='a skeleton is made of createNode joint -n "..." statements')
+            raise QuadpipeError.single(
+                "empty-skeleton",
+                "the file creates no joint nodes",
+                file=self.source,
+                hint='a skeleton is made of createNode joint -n "..." statements',
+            )
         return RawSkeleton(name=name, source=self.source, joints=tuple(records), units=self.unit, up="y")
 
 
@@ -509,9 +561,17 @@ def local_matrix(node: _Node) -> np.ndarray:
     scale_pivot = _translation(node.vector("sp"))
     rotate_pivot = _translation(node.vector("rp"))
     return (
-        np.linalg.inv(scale_pivot) @ scale @ _shear(node.vector("sh")) @ scale_pivot
-        @ _translation(node.vector("spt")) @ np.linalg.inv(rotate_pivot) @ rotate_axis @ rotate
-        @ rotate_pivot @ _translation(node.vector("rpt")) @ translate
+        np.linalg.inv(scale_pivot)
+        @ scale
+        @ _shear(node.vector("sh"))
+        @ scale_pivot
+        @ _translation(node.vector("spt"))
+        @ np.linalg.inv(rotate_pivot)
+        @ rotate_axis
+        @ rotate
+        @ rotate_pivot
+        @ _translation(node.vector("rpt"))
+        @ translate
     )
 
 
@@ -537,8 +597,11 @@ def read_skeleton(path: str | Path) -> RawSkeleton:
     text = _read_text(path)
     reader = _Reader(str(path), text)
     if not text.startswith(MAYA_HEADER):
-        reader.fail(Token("", False, 1, 1), "ma-not-maya-ascii",
-                    f"the file does not start with {MAYA_HEADER!r}, so it is not a Maya ASCII file",
-                    "export the scene from Maya as Maya ASCII (.ma); Maya itself refuses files without this header")
+        reader.fail(
+            Token("", False, 1, 1),
+            "ma-not-maya-ascii",
+            f"the file does not start with {MAYA_HEADER!r}, so it is not a Maya ASCII file",
+            "export the scene from Maya as Maya ASCII (.ma); Maya itself refuses files without this header",
+        )
     reader.run()
     return reader.skeleton(path.name.split(".")[0])

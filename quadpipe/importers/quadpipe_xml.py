@@ -16,8 +16,8 @@ from __future__ import annotations
 from pathlib import Path
 from xml.parsers import expat
 
-from quadpipe.core.errors import QuadpipeError, did_you_mean
 from quadpipe.anatomy.skeleton import UNIT_TO_METRES, UP_AXES, JointRecord, RawSkeleton
+from quadpipe.core.errors import QuadpipeError, did_you_mean
 
 FORMAT_VERSION = "1"
 JOINT_ATTRIBUTES = {"name", "parent", "role", "position", "axis", "end"}
@@ -65,7 +65,14 @@ def read_skeleton(path: str | Path) -> RawSkeleton:
     joints = []
     for tag, attrs, line, column in elements[1:]:
         if tag != "joint":
-            _fail(source, line, column, "bad-element", f"unexpected element <{tag}>", "a skeleton holds <joint> elements only")
+            _fail(
+                source,
+                line,
+                column,
+                "bad-element",
+                f"unexpected element <{tag}>",
+                "a skeleton holds <joint> elements only",
+            )
         _check_attributes(source, tag, attrs, JOINT_ATTRIBUTES, line, column)
         for required in ("name", "position"):
             if required not in attrs:
@@ -100,7 +107,14 @@ def _vector(source: str, line: int, column: int, attrs: dict[str, str], key: str
 def _check_attributes(source: str, tag: str, attrs: dict[str, str], allowed: set[str], line: int, column: int) -> None:
     for key in attrs:
         if key not in allowed:
-            _fail(source, line, column, "unknown-attribute", f"<{tag}> has no attribute {key!r}", did_you_mean(key, allowed))
+            _fail(
+                source,
+                line,
+                column,
+                "unknown-attribute",
+                f"<{tag}> has no attribute {key!r}",
+                did_you_mean(key, allowed),
+            )
 
 
 def _fail(source: str, line: int, column: int, code: str, message: str, hint: str | None = None) -> None:

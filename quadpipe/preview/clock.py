@@ -68,4 +68,3 @@ class Clock:
     def reset(self) -> None:
         """Forget owed time and queued steps (the pause and speed stay)."""
         self._owed_s, self._queued = 0.0, 0
-

@@ -12,9 +12,10 @@ controller's goal, and force the states of its state machines.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -24,7 +25,14 @@ from quadpipe.core import configs
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.preview.base import Preview
 from quadpipe.preview.clock import Clock
-from quadpipe.preview.overlays import LIVE_OVERLAYS, balance_layer, contacts_layer, forces_layer, goal_layer, segments_layer
+from quadpipe.preview.overlays import (
+    LIVE_OVERLAYS,
+    balance_layer,
+    contacts_layer,
+    forces_layer,
+    goal_layer,
+    segments_layer,
+)
 from quadpipe.preview.scenery import HIDDEN_BELOW_HP, OverlayLayer, Pose, model_scenery, pose_of
 from quadpipe.preview.throws import POOL_SIZE, ThrowKind, ThrowPool, add_throw_pool, throw_at_trunk
 from quadpipe.world.goals import vector_text
@@ -74,7 +82,7 @@ class FileWatcher:
 class _GoalEnv(dict):
     """A minimal expression env to evaluate a goal parameter: time and body points."""
 
-    def __init__(self, runtime: "ControllerRuntime", data: mujoco.MjData):
+    def __init__(self, runtime: ControllerRuntime, data: mujoco.MjData):
         super().__init__()
         self.runtime, self.data = runtime, data
 
@@ -100,13 +108,13 @@ class _GoalEnv(dict):
 class _World:
     """One built world: the scene, its simulation, the throw pool, the first animal's pelvis height."""
 
-    scene: "SceneSpec"
-    sim: "Simulation"
+    scene: SceneSpec
+    sim: Simulation
     pool: ThrowPool
     hp: float
 
     @property
-    def setup(self) -> "SceneSetup":
+    def setup(self) -> SceneSetup:
         """The scene built for its animals."""
         return self.sim.setup
 
@@ -128,7 +136,14 @@ class LivePreview(Preview):
 
     overlay_names = LIVE_OVERLAYS
 
-    def __init__(self, animal: str, controller: str, scene: str | None = None, parameters: Mapping[str, str] | None = None, pool_size: int = POOL_SIZE):
+    def __init__(
+        self,
+        animal: str,
+        controller: str,
+        scene: str | None = None,
+        parameters: Mapping[str, str] | None = None,
+        pool_size: int = POOL_SIZE,
+    ):
         from quadpipe.animals.library import load_animal
         from quadpipe.animals.model import build_animal
         from quadpipe.sim.simulation import DEFAULT_SCENE
@@ -154,12 +169,12 @@ class LivePreview(Preview):
 
     # -------------------------------------------------------------- building
 
-    def _load_scene(self) -> "SceneSpec":
+    def _load_scene(self) -> SceneSpec:
         from quadpipe.world import load_scene
 
         return load_scene(self.scene_path)
 
-    def _build_world(self, scene: "SceneSpec") -> _World:
+    def _build_world(self, scene: SceneSpec) -> _World:
         """The scene built for the animal, a throw pool added, compiled into a simulation (no controller yet)."""
         from quadpipe.sim.simulation import Simulation
         from quadpipe.world import build_scene
@@ -170,7 +185,7 @@ class LivePreview(Preview):
         sim = Simulation(setup)
         return _World(scene, sim, ThrowPool(sim.model, names), first.pelvis_height)
 
-    def _compile(self, world: _World) -> tuple["CompiledController", tuple[str, ...]]:
+    def _compile(self, world: _World) -> tuple[CompiledController, tuple[str, ...]]:
         """The controller's current files compiled for `world`, and the files it was read from.
 
         Goals moved by the goal actions are offered over the scene's; the other overrides win.
@@ -186,7 +201,7 @@ class LivePreview(Preview):
         return round(1.0 / (sizing.FRAME_RATE * model.opt.timestep))
 
     @property
-    def runtime(self) -> "ControllerRuntime":
+    def runtime(self) -> ControllerRuntime:
         """The controller runtime now driving the animals."""
         return self.world.sim.runtime
 
@@ -286,7 +301,9 @@ class LivePreview(Preview):
         world.sim.use_controller(compiled).adopt(self.runtime)
         self.world = world
         self.controller_files.watch(sources)
-        self.clock = Clock(self.model.opt.timestep, self._steps_per_frame(self.model), self.clock.paused, self.clock.slow)
+        self.clock = Clock(
+            self.model.opt.timestep, self._steps_per_frame(self.model), self.clock.paused, self.clock.slow
+        )
         self.scenery, self._body_ids = model_scenery(self.model, world.hp)
         self.scenery_version += 1
         mujoco.mj_forward(self.model, self.data)
@@ -305,10 +322,21 @@ class LivePreview(Preview):
         actions = super().actions()
         actions["throw_ball"] = ("throw a ball at the animal from the camera", lambda eye: self.throw("ball", eye))
         actions["throw_box"] = ("throw a box at the animal from the camera", lambda eye: self.throw("box", eye))
-        for name, (dx, dy) in {"goal_forward": (1, 0), "goal_back": (-1, 0), "goal_left": (0, 1), "goal_right": (0, -1)}.items():
-            actions[name] = (f"move the goal {GOAL_STEP_HP:g} HP {name[5:]}", lambda eye, d=(dx, dy): self.nudge_goal(d))
+        for name, (dx, dy) in {
+            "goal_forward": (1, 0),
+            "goal_back": (-1, 0),
+            "goal_left": (0, 1),
+            "goal_right": (0, -1),
+        }.items():
+            actions[name] = (
+                f"move the goal {GOAL_STEP_HP:g} HP {name[5:]}",
+                lambda eye, d=(dx, dy): self.nudge_goal(d),
+            )
         for k in range(1, STATE_KEYS + 1):
-            actions[f"state_{k}"] = (f"force state {k} of the first state machine", lambda eye, k=k: self.force_state_number(k))
+            actions[f"state_{k}"] = (
+                f"force state {k} of the first state machine",
+                lambda eye, k=k: self.force_state_number(k),
+            )
         return actions
 
     def throw(self, kind: ThrowKind, eye: np.ndarray | None = None) -> int:
@@ -334,7 +362,9 @@ class LivePreview(Preview):
         if name is None:
             return None
         try:
-            return np.asarray(self.runtime.compiled.parameters[name](_GoalEnv(self.runtime, self.data)), dtype=float).reshape(-1, 3)[0]
+            return np.asarray(
+                self.runtime.compiled.parameters[name](_GoalEnv(self.runtime, self.data)), dtype=float
+            ).reshape(-1, 3)[0]
         except KeyError:
             return None
 

@@ -6,13 +6,14 @@ as plain numpy (`quadpipe.preview.scenery.OverlayLayer`).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Sequence
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
-from quadpipe.animals import sizing
 from quadpipe.anatomy import roles
+from quadpipe.animals import sizing
 from quadpipe.preview.scenery import OverlayLayer, layer
 from quadpipe.world.placement import Placement
 
@@ -48,7 +49,7 @@ LIVE_OVERLAYS = ("segments", "balance", "forces", "contacts", "goal")
 """Overlay layers of a live preview, by name (all shown at the start)."""
 
 
-def segments_layer(runtime: "ControllerRuntime", data: mujoco.MjData) -> OverlayLayer:
+def segments_layer(runtime: ControllerRuntime, data: mujoco.MjData) -> OverlayLayer:
     """The controller's control segments, as lines between their two points."""
     pairs = [(e.spec.from_, e.spec.to) for e in runtime.compiled.elements.values() if e.type == "segment"]
     starts = [runtime.point(data, a) for a, _ in pairs]
@@ -56,7 +57,9 @@ def segments_layer(runtime: "ControllerRuntime", data: mujoco.MjData) -> Overlay
     return layer("segments", "line", _stack(starts), _stack(ends), SEGMENT_RGBA)
 
 
-def balance_layer(runtime: "ControllerRuntime", model: mujoco.MjModel, data: mujoco.MjData, placements: Sequence[Placement]) -> OverlayLayer:
+def balance_layer(
+    runtime: ControllerRuntime, model: mujoco.MjModel, data: mujoco.MjData, placements: Sequence[Placement]
+) -> OverlayLayer:
     """Gravity + velocity / horizon at each leg's top, one HP long for gravity alone."""
     from quadpipe.quantities import expressions
 
@@ -72,7 +75,7 @@ def balance_layer(runtime: "ControllerRuntime", model: mujoco.MjModel, data: muj
     return layer("balance", "arrow", _stack(starts), _stack(ends), BALANCE_RGBA)
 
 
-def forces_layer(runtime: "ControllerRuntime", placements: Sequence[Placement]) -> OverlayLayer:
+def forces_layer(runtime: ControllerRuntime, placements: Sequence[Placement]) -> OverlayLayer:
     """Last step's Cartesian forces, `FORCE_ARROW_HP_PER_BW` HP per body weight."""
     last = runtime.last
     weight = np.array([p.built.animal.mass_kg * sizing.GRAVITY for p in placements])

@@ -88,7 +88,6 @@ class ReplayPreview(Preview):
         return "  |  ".join(parts + ([made] if made else []))
 
 
-
 REPLAY_SUFFIXES = (".npz",)
 """Clip files a preview can replay."""
 
@@ -105,7 +104,9 @@ def load_replay(path: str | Path) -> ReplayPreview:
     path = Path(path)
     if path.suffix.lower() not in REPLAY_SUFFIXES:
         raise QuadpipeError.single(
-            "unsupported-clip-format", f"cannot replay {str(path)!r}: previews read {', '.join(REPLAY_SUFFIXES)} clips",
-            file=str(path), hint="bake the motion with `-o run.npz` (quadpipe simulate / bake)",
+            "unsupported-clip-format",
+            f"cannot replay {str(path)!r}: previews read {', '.join(REPLAY_SUFFIXES)} clips",
+            file=str(path),
+            hint="bake the motion with `-o run.npz` (quadpipe simulate / bake)",
         )
     return ReplayPreview(load_clip(path))

@@ -6,8 +6,9 @@ Plain numpy, built from a compiled MuJoCo world (`model_scenery`) or from a bake
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Literal
 
 import mujoco
 import numpy as np
@@ -23,7 +24,12 @@ scene's thrown objects do)."""
 
 OverlayKind = Literal["line", "arrow", "point"]
 
-_DRAWABLE_GEOMS = {int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_BOX), int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_PLANE)}
+_DRAWABLE_GEOMS = {
+    int(mujoco.mjtGeom.mjGEOM_CAPSULE),
+    int(mujoco.mjtGeom.mjGEOM_BOX),
+    int(mujoco.mjtGeom.mjGEOM_SPHERE),
+    int(mujoco.mjtGeom.mjGEOM_PLANE),
+}
 """Geom types a preview draws (those a `quadpipe.clip.model.Shape` can carry)."""
 
 
@@ -84,14 +90,15 @@ class OverlayLayer:
     colors: np.ndarray
 
 
-def layer(name: str, kind: OverlayKind, starts: np.ndarray, ends: np.ndarray | None, rgba: Sequence[float] | np.ndarray) -> OverlayLayer:
+def layer(
+    name: str, kind: OverlayKind, starts: np.ndarray, ends: np.ndarray | None, rgba: Sequence[float] | np.ndarray
+) -> OverlayLayer:
     """An overlay layer; `rgba` is one colour for all items, or one per item."""
     starts = np.asarray(starts, dtype=float).reshape(-1, 3)
     ends = starts.copy() if ends is None else np.asarray(ends, dtype=float).reshape(-1, 3)
     colors = np.asarray(rgba, dtype=float)
     colors = np.tile(colors, (len(starts), 1)) if colors.ndim == 1 else colors.reshape(-1, 4)
     return OverlayLayer(name, kind, starts, ends, colors)
-
 
 
 def model_scenery(model: mujoco.MjModel, hp: float) -> tuple[Scenery, np.ndarray]:
@@ -111,14 +118,12 @@ def _geom_shapes(model: mujoco.MjModel, body: int) -> tuple[Shape, ...]:
     return tuple(geom_shape(model, g) for g in geoms if int(model.geom_type[g]) in _DRAWABLE_GEOMS)
 
 
-
 def pose_of(positions: np.ndarray, quaternions: np.ndarray, lowest: float) -> Pose:
     """A pose whose bodies below `lowest` (parked) or not finite (diverged) are hidden."""
     finite = np.isfinite(positions).all(axis=1) & np.isfinite(quaternions).all(axis=1)
     visible = finite & (np.where(finite, positions[:, 2], 0.0) > lowest)
     safe_quats = np.where(finite[:, None], quaternions, [1.0, 0.0, 0.0, 0.0])
     return Pose(np.where(finite[:, None], positions, 0.0), safe_quats, visible)
-
 
 
 def clip_scenery(clip: Clip) -> Scenery:
@@ -138,4 +143,3 @@ def clip_poses(clip: Clip) -> tuple[np.ndarray, np.ndarray]:
     positions = [track.positions for track in clip.animals] + [prop.positions[:, None] for prop in clip.props]
     rotations = [track.rotations for track in clip.animals] + [prop.rotations[:, None] for prop in clip.props]
     return np.concatenate(positions, axis=1), np.concatenate(rotations, axis=1)
-

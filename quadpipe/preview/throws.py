@@ -8,7 +8,8 @@ the camera and is aimed ballistically (`throw_origin`, `aim_velocity`).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Literal, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Literal
 
 import mujoco
 import numpy as np
@@ -67,7 +68,9 @@ class ThrowPool:
                 _set_colliding(model, body, False)
         self._next = {kind: 0 for kind in self.bodies}
 
-    def throw(self, model: mujoco.MjModel, data: mujoco.MjData, kind: str, position: np.ndarray, velocity: np.ndarray) -> int:
+    def throw(
+        self, model: mujoco.MjModel, data: mujoco.MjData, kind: str, position: np.ndarray, velocity: np.ndarray
+    ) -> int:
         """Teleport the next body of `kind` to `position`, moving at `velocity`; returns its body id."""
         bodies = self.bodies[kind]
         body = bodies[self._next[kind] % len(bodies)]
@@ -116,9 +119,15 @@ def add_throw_pool(spec: mujoco.MjSpec, hp: float, mass_kg: float, count: int = 
             body = spec.worldbody.add_body(name=name, pos=[0.0, 0.0, -PARK_DEPTH_HP * hp], gravcomp=1.0)
             body.add_freejoint(name=name)
             body.add_geom(
-                name=name, type=geom_type, size=size, mass=THROW_MASS_BM * mass_kg, rgba=list(THROWN_RGBA),
-                solref=[sizing.constraint_time_constant(hp), 1.0], solimp=sizing.constraint_impedance(hp),
-                contype=0, conaffinity=0,
+                name=name,
+                type=geom_type,
+                size=size,
+                mass=THROW_MASS_BM * mass_kg,
+                rgba=list(THROWN_RGBA),
+                solref=[sizing.constraint_time_constant(hp), 1.0],
+                solimp=sizing.constraint_impedance(hp),
+                contype=0,
+                conaffinity=0,
             )
     return names
 
@@ -149,10 +158,14 @@ def throw_origin(eye: np.ndarray | None, target: np.ndarray, heading: np.ndarray
     return target + offset * min(1.0, reach / distance)
 
 
-
 def throw_at_trunk(
-    runtime: "ControllerRuntime", model: mujoco.MjModel, data: mujoco.MjData, pool: ThrowPool, kind: ThrowKind,
-    eye: np.ndarray | None, hp: float,
+    runtime: ControllerRuntime,
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    pool: ThrowPool,
+    kind: ThrowKind,
+    eye: np.ndarray | None,
+    hp: float,
 ) -> tuple[int, float]:
     """Throw the next ball or box of `pool` at the first animal's trunk from the camera at `eye`.
 

@@ -19,14 +19,15 @@ import math
 import os
 import sys
 import time
-from typing import TYPE_CHECKING, Sequence
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from quadpipe.clip.model import Shape
-from quadpipe.core.errors import QuadpipeError
 from quadpipe.clip.kinematics import to_matrix
 from quadpipe.clip.meshes import TriangleMesh, merge, shape_mesh
+from quadpipe.clip.model import Shape
+from quadpipe.core.errors import QuadpipeError
 from quadpipe.preview.scenery import OverlayLayer, Pose, Scenery
 
 if TYPE_CHECKING:
@@ -48,7 +49,10 @@ KEY_BINDINGS: dict[str, str] = {
     "DOWN": "goal_back",
     "LEFT": "goal_left",
     "RIGHT": "goal_right",
-    **{name: f"state_{k}" for k, name in enumerate(("ONE", "TWO", "THREE", "FOUR", "FIVE", "SIX", "SEVEN", "EIGHT", "NINE"), start=1)},
+    **{
+        name: f"state_{k}"
+        for k, name in enumerate(("ONE", "TWO", "THREE", "FOUR", "FIVE", "SIX", "SEVEN", "EIGHT", "NINE"), start=1)
+    },
     "F1": "toggle_segments",
     "F2": "toggle_balance",
     "F3": "toggle_forces",
@@ -131,10 +135,15 @@ def checker_plane(shape: Shape, hp: float) -> TriangleMesh:
     ys = np.linspace(-half[1], half[1], counts[1] + 1)
     i, j = np.meshgrid(np.arange(counts[0]), np.arange(counts[1]), indexing="ij")
     i, j = i.ravel(), j.ravel()
-    corners = np.stack([
-        np.stack([xs[i], ys[j]], axis=1), np.stack([xs[i + 1], ys[j]], axis=1),
-        np.stack([xs[i + 1], ys[j + 1]], axis=1), np.stack([xs[i], ys[j + 1]], axis=1),
-    ], axis=1).reshape(-1, 2)
+    corners = np.stack(
+        [
+            np.stack([xs[i], ys[j]], axis=1),
+            np.stack([xs[i + 1], ys[j]], axis=1),
+            np.stack([xs[i + 1], ys[j + 1]], axis=1),
+            np.stack([xs[i], ys[j + 1]], axis=1),
+        ],
+        axis=1,
+    ).reshape(-1, 2)
     vertices = np.concatenate([corners, np.zeros((len(corners), 1))], axis=1)
     first = 4 * np.arange(len(i))[:, None]
     faces = np.concatenate([first + [0, 1, 2], first + [0, 2, 3]])
@@ -208,22 +217,26 @@ def _crosses(centres: np.ndarray, colors: np.ndarray, half: float) -> tuple[np.n
 # --------------------------------------------------------------------------- open3d scene
 
 
-def o3d_mesh(mesh: TriangleMesh) -> "open3d.geometry.TriangleMesh":
+def o3d_mesh(mesh: TriangleMesh) -> open3d.geometry.TriangleMesh:
     """A quadpipe mesh as an open3d mesh with normals and vertex colours."""
     import open3d as o3d
 
-    result = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(mesh.vertices), o3d.utility.Vector3iVector(mesh.faces.astype(np.int32)))
+    result = o3d.geometry.TriangleMesh(
+        o3d.utility.Vector3dVector(mesh.vertices), o3d.utility.Vector3iVector(mesh.faces.astype(np.int32))
+    )
     result.vertex_normals = o3d.utility.Vector3dVector(mesh.normals)
     result.vertex_colors = o3d.utility.Vector3dVector(mesh.colors[:, :3])
     return result
 
 
-def o3d_lines(overlay: OverlayLayer, hp: float) -> "open3d.geometry.LineSet":
+def o3d_lines(overlay: OverlayLayer, hp: float) -> open3d.geometry.LineSet:
     """An overlay layer as an open3d line set."""
     import open3d as o3d
 
     points, segments, colors = overlay_lines(overlay, hp)
-    lines = o3d.geometry.LineSet(o3d.utility.Vector3dVector(points), o3d.utility.Vector2iVector(segments.astype(np.int32)))
+    lines = o3d.geometry.LineSet(
+        o3d.utility.Vector3dVector(points), o3d.utility.Vector2iVector(segments.astype(np.int32))
+    )
     lines.colors = o3d.utility.Vector3dVector(colors)
     return lines
 
@@ -236,7 +249,7 @@ class SceneView:
         preview: a `LivePreview` or `ReplayPreview`.
     """
 
-    def __init__(self, scene: "open3d.visualization.rendering.Open3DScene", preview: "Preview"):
+    def __init__(self, scene: open3d.visualization.rendering.Open3DScene, preview: Preview):
         from open3d.visualization import rendering
 
         self.scene, self.preview = scene, preview
@@ -263,7 +276,9 @@ class SceneView:
             self.scene.add_geometry(STATIC_NAME, o3d_mesh(floor), self.lit)
             self.scene.scene.geometry_shadows(STATIC_NAME, False, True)  # a floor casting shadows darkens itself
         for body in scenery.bodies:
-            self.scene.add_geometry(BODY_PREFIX + body.name, o3d_mesh(merge([shape_mesh(s) for s in body.shapes])), self.lit)
+            self.scene.add_geometry(
+                BODY_PREFIX + body.name, o3d_mesh(merge([shape_mesh(s) for s in body.shapes])), self.lit
+            )
         self._version = self.preview.scenery_version
 
     def update(self) -> None:
@@ -303,7 +318,9 @@ class FollowCamera:
 
         self.following = True
         self.center = np.asarray(focus, dtype=float).copy()
-        view = CameraView(self.center, CAMERA_START["distance_hp"] * hp, CAMERA_START["azimuth_deg"], CAMERA_START["elevation_deg"])
+        view = CameraView(
+            self.center, CAMERA_START["distance_hp"] * hp, CAMERA_START["azimuth_deg"], CAMERA_START["elevation_deg"]
+        )
         self.start_eye = view.position()
 
     def follow(self, focus: np.ndarray, eye: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -317,13 +334,13 @@ class FollowCamera:
 # --------------------------------------------------------------------------- window
 
 
-def bound_actions(preview: "Preview") -> dict[str, str]:
+def bound_actions(preview: Preview) -> dict[str, str]:
     """The key bindings that do something in this preview: key name -> action."""
     actions = preview.actions()
     return {key: action for key, action in KEY_BINDINGS.items() if action in actions or action in WINDOW_ACTIONS}
 
 
-def help_text(preview: "Preview") -> str:
+def help_text(preview: Preview) -> str:
     """One line per bound key: the key and what it does."""
     actions = preview.actions()
     lines = []
@@ -341,7 +358,8 @@ def check_display() -> None:
     """
     if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         raise QuadpipeError.single(
-            "no-display", "the preview opens a window, and there is no display here (DISPLAY is not set)",
+            "no-display",
+            "the preview opens a window, and there is no display here (DISPLAY is not set)",
             hint="run it on a desktop (or over `ssh -X`); headless, `quadpipe render` writes videos",
         )
 
@@ -355,7 +373,7 @@ class PreviewWindow:
         size: width and height, pixels.
     """
 
-    def __init__(self, preview: "Preview", title: str, size: tuple[int, int] = WINDOW_SIZE):
+    def __init__(self, preview: Preview, title: str, size: tuple[int, int] = WINDOW_SIZE):
         from open3d.visualization import gui, rendering
 
         self.gui, self.preview = gui, preview
@@ -383,14 +401,14 @@ class PreviewWindow:
     def _eye(self) -> np.ndarray:
         return np.asarray(self.widget.scene.camera.get_model_matrix(), dtype=float)[:3, 3]
 
-    def _layout(self, context: "open3d.visualization.gui.LayoutContext") -> None:
+    def _layout(self, context: open3d.visualization.gui.LayoutContext) -> None:
         frame = self.window.content_rect
         self.widget.frame = frame
         em = context.theme.font_size
         self.status.frame = self.gui.Rect(frame.x + em // 2, frame.y + em // 4, frame.width - em, 2 * em)
         self.errors.frame = self.gui.Rect(frame.x + em // 2, frame.y + 2 * em, frame.width - em, 12 * em)
 
-    def _on_key(self, event: "open3d.visualization.gui.KeyEvent") -> bool:
+    def _on_key(self, event: open3d.visualization.gui.KeyEvent) -> bool:
         action = self._keys.get(int(event.key))
         if action is None or event.type != self.gui.KeyEvent.Type.DOWN:
             return action is not None
@@ -418,7 +436,7 @@ class PreviewWindow:
         return True
 
 
-def open_window(preview: "Preview", title: str = "quadpipe preview", size: tuple[int, int] = WINDOW_SIZE) -> None:
+def open_window(preview: Preview, title: str = "quadpipe preview", size: tuple[int, int] = WINDOW_SIZE) -> None:
     """Open a preview window and run it until it is closed.
 
     Raises:

@@ -9,9 +9,10 @@ inlined where they are used, so a checked expression is self-contained.
 from __future__ import annotations
 
 import ast
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Any, Collection, Mapping, Sequence
+from typing import Any
 
 from quadpipe.anatomy.roles import LEGS, PARENT, ROLES
 from quadpipe.core.errors import did_you_mean
@@ -57,7 +58,7 @@ class Namespace:
     locals: Mapping[str, Expr] = field(default_factory=dict)
     parameter_texts: Mapping[str, str] = field(default_factory=dict)
 
-    def with_locals(self, **local: Expr) -> "Namespace":
+    def with_locals(self, **local: Expr) -> Namespace:
         """A copy with extra local names."""
         return Namespace(self.parameters, self.sensors, self.cycles, {**self.locals, **local}, self.parameter_texts)
 
@@ -113,14 +114,23 @@ class _Checker:
         if name in PARENT:
             return Expr("var", POINT_TYPE, value=point_key(f"{name}.start"))
         if name in LEGS:
-            raise self.fail("wrong-type", f"{name!r} is a leg, not a value", f"use a point such as {name}.top or {name}.foot, or contact({name})")
+            raise self.fail(
+                "wrong-type",
+                f"{name!r} is a leg, not a value",
+                f"use a point such as {name}.top or {name}.foot, or contact({name})",
+            )
         if name in self.ns.cycles:
             raise self.fail("wrong-type", f"{name!r} is a cycle, not a value", f"use phase({name})")
         if name in FUNCTIONS:
             raise self.fail("wrong-type", f"{name!r} is a function", f"call it: `{FUNCTIONS[name].signature}`")
         if name in LOCAL_NAMES:
             raise self.fail("unknown-name", f"{name!r} does not exist here", f"`{name}` only exists {LOCAL_HELP[name]}")
-        raise self.fail("unknown-name", f"unknown name {name!r}", did_you_mean(name, self.ns.known_names(), listing=False) or "names are parameters, sensors, units, t, roles and functions")
+        raise self.fail(
+            "unknown-name",
+            f"unknown name {name!r}",
+            did_you_mean(name, self.ns.known_names(), listing=False)
+            or "names are parameters, sensors, units, t, roles and functions",
+        )
 
     def _attribute(self, node: ast.Attribute) -> Expr:
         base = node.value
@@ -130,14 +140,24 @@ class _Checker:
         if inner.type.kind == VECTOR and node.attr in COMPONENTS:
             return Expr("comp", Type(SCALAR, inner.type.dim), (inner,), COMPONENTS[node.attr])
         if inner.type.kind == VECTOR:
-            raise self.fail("unknown-name", f"vectors have components .x .y .z, not .{node.attr}", did_you_mean(node.attr, COMPONENTS, listing=False) or None)
-        raise self.fail("wrong-type", f".{node.attr} needs a role, a leg or a vector before it, got {inner.type.describe()}")
+            raise self.fail(
+                "unknown-name",
+                f"vectors have components .x .y .z, not .{node.attr}",
+                did_you_mean(node.attr, COMPONENTS, listing=False) or None,
+            )
+        raise self.fail(
+            "wrong-type", f".{node.attr} needs a role, a leg or a vector before it, got {inner.type.describe()}"
+        )
 
     def _subscript(self, node: ast.Subscript) -> Expr:
         inner = self.check(node.value)
         index = node.slice
-        if inner.type.kind != VECTOR or not (isinstance(index, ast.Constant) and type(index.value) is int and 0 <= index.value <= 2):
-            raise self.fail("forbidden-syntax", "indexing is only v[0], v[1] or v[2] on a vector", "or write v.x, v.y, v.z")
+        if inner.type.kind != VECTOR or not (
+            isinstance(index, ast.Constant) and type(index.value) is int and 0 <= index.value <= 2
+        ):
+            raise self.fail(
+                "forbidden-syntax", "indexing is only v[0], v[1] or v[2] on a vector", "or write v.x, v.y, v.z"
+            )
         return Expr("comp", Type(SCALAR, inner.type.dim), (inner,), index.value)
 
     def _list(self, node: ast.List) -> Expr:
@@ -154,11 +174,17 @@ class _Checker:
 
     def need_number(self, expr: Expr, where: str) -> None:
         if expr.type.kind == BOOL:
-            raise self.fail("wrong-type", f"{where} needs a number or a vector, got a condition", "turn a condition into a number with `1 if cond else 0`")
+            raise self.fail(
+                "wrong-type",
+                f"{where} needs a number or a vector, got a condition",
+                "turn a condition into a number with `1 if cond else 0`",
+            )
 
     def need_bool(self, expr: Expr, where: str) -> None:
         if expr.type.kind != BOOL:
-            raise self.fail("wrong-type", f"{where} needs a condition, got {expr.type.describe()}", "compare values with < <= > >=")
+            raise self.fail(
+                "wrong-type", f"{where} needs a condition, got {expr.type.describe()}", "compare values with < <= > >="
+            )
 
     def _binop(self, node: ast.BinOp) -> Expr:
         op = _BINARY[type(node.op)]
@@ -193,11 +219,19 @@ class _Checker:
 
     def _power(self, base: Expr, exponent: Expr) -> Expr:
         if base.type.kind != SCALAR or exponent.type != NUMBER:
-            raise self.fail("wrong-type", "powers need a number raised to a plain number", "write x^2, not a vector or a unit in the exponent")
+            raise self.fail(
+                "wrong-type",
+                "powers need a number raised to a plain number",
+                "write x^2, not a vector or a unit in the exponent",
+            )
         if base.type.dim.is_none:
             return Expr("pow", NUMBER, (base, exponent))
         if exponent.needs or exponent.uses_scale:
-            raise self.fail("wrong-type", "a quantity with a unit can only be raised to a constant power", "write HP^2, not HP^k with k changing")
+            raise self.fail(
+                "wrong-type",
+                "a quantity with a unit can only be raised to a constant power",
+                "write HP^2, not HP^k with k changing",
+            )
         power = Fraction(float(evaluate_constant(exponent))).limit_denominator(1000)
         return Expr("pow", Type(SCALAR, base.type.dim**power), (base, Expr("num", NUMBER, value=float(power))))
 
@@ -213,15 +247,27 @@ class _Checker:
         ops = []
         for op in node.ops:
             if type(op) not in _COMPARE:
-                raise self.fail("forbidden-syntax", "== and != are not allowed: measured values are never exactly equal", "compare with < <= > >=")
+                raise self.fail(
+                    "forbidden-syntax",
+                    "== and != are not allowed: measured values are never exactly equal",
+                    "compare with < <= > >=",
+                )
             ops.append(_COMPARE[type(op)])
         for operand in operands:
             if operand.type.kind != SCALAR:
-                raise self.fail("wrong-type", f"only numbers can be compared, got {operand.type.describe()}", "compare norm(v), v.z or angle(a, b)")
+                raise self.fail(
+                    "wrong-type",
+                    f"only numbers can be compared, got {operand.type.describe()}",
+                    "compare norm(v), v.z or angle(a, b)",
+                )
         dims = {operand.type.dim for operand in operands}
         if len(dims) > 1:
             listed = " and ".join(operand.type.describe() for operand in operands)
-            raise self.fail("dimension-mismatch", f"cannot compare {listed}", "both sides need the same kind of unit (20 deg, not 20)")
+            raise self.fail(
+                "dimension-mismatch",
+                f"cannot compare {listed}",
+                "both sides need the same kind of unit (20 deg, not 20)",
+            )
         return Expr("cmp", CONDITION, tuple(operands), tuple(ops))
 
     def _ifexp(self, node: ast.IfExp) -> Expr:
@@ -239,7 +285,11 @@ class _Checker:
             raise self.fail("forbidden-syntax", "only named functions can be called")
         name = node.func.id
         if name not in FUNCTIONS:
-            raise self.fail("unknown-function", f"unknown function {name!r}", did_you_mean(name, FUNCTIONS, listing=False) or "see the function list in docs/controllers.md")
+            raise self.fail(
+                "unknown-function",
+                f"unknown function {name!r}",
+                did_you_mean(name, FUNCTIONS, listing=False) or "see the function list in docs/controllers.md",
+            )
         if node.keywords:
             raise self.fail("forbidden-syntax", f"{name}() takes no named arguments")
         if name in SPECIAL_ARGUMENT_FUNCTIONS:
@@ -256,7 +306,9 @@ class _Checker:
         target = args[0].id
         if name == "phase" and target not in self.ns.cycles:
             hint = did_you_mean(target, self.ns.cycles) if self.ns.cycles else "add a `type: cycle` element"
-            raise self.fail("unknown-cycle", f"phase() needs a cycle element, and there is no cycle named {target!r}", hint)
+            raise self.fail(
+                "unknown-cycle", f"phase() needs a cycle element, and there is no cycle named {target!r}", hint
+            )
         if name == "contact" and target not in LEGS:
             raise self.fail("unknown-leg", f"contact() needs a leg, got {target!r}", did_you_mean(target, LEGS))
         return Expr("var", FUNCTIONS[name].result([], self.text), value=f"{name}:{target}")
@@ -275,7 +327,11 @@ def make_vector(items: Sequence[Expr], text: str) -> Expr:
     items = _zeros_take_unit(items)
     dims = {item.type.dim for item in items}
     if len(dims) > 1:
-        raise ExprError("dimension-mismatch", f"vector components mix units in {text!r}", "give all three components the same kind of unit, or 0")
+        raise ExprError(
+            "dimension-mismatch",
+            f"vector components mix units in {text!r}",
+            "give all three components the same kind of unit, or 0",
+        )
     return Expr("vec", Type(VECTOR, items[0].type.dim), tuple(items))
 
 
@@ -303,14 +359,26 @@ def resolve_point_name(text: str) -> str:
     base, dot, anchor = text.strip().partition(".")
     if base in LEGS:
         if anchor not in LEG_LANDMARKS:
-            raise ExprError("bad-point", f"{text!r}: a leg has the points .top and .foot", did_you_mean(anchor, LEG_LANDMARKS, listing=False) or None)
+            raise ExprError(
+                "bad-point",
+                f"{text!r}: a leg has the points .top and .foot",
+                did_you_mean(anchor, LEG_LANDMARKS, listing=False) or None,
+            )
         return f"{base}_{LEG_LANDMARKS[anchor][base.endswith('f')]}"
     if base not in PARENT:
-        raise ExprError("unknown-role", f"{base!r} is not a role", did_you_mean(base, [*ROLES, *LEGS], listing=False) or "see the roles in docs/controllers.md")
+        raise ExprError(
+            "unknown-role",
+            f"{base!r} is not a role",
+            did_you_mean(base, [*ROLES, *LEGS], listing=False) or "see the roles in docs/controllers.md",
+        )
     if not dot:
         return f"{base}.start"
     if anchor not in POINT_ANCHORS:
-        raise ExprError("bad-point", f"{text!r}: a bone has the points .start, .end and .mid", did_you_mean(anchor, POINT_ANCHORS, listing=False) or None)
+        raise ExprError(
+            "bad-point",
+            f"{text!r}: a bone has the points .start, .end and .mid",
+            did_you_mean(anchor, POINT_ANCHORS, listing=False) or None,
+        )
     return f"{base}.{anchor}"
 
 

@@ -21,8 +21,8 @@ yields no force rather than a NaN (which would make MuJoCo reset silently).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Callable, Mapping
 
 import numpy as np
 
@@ -79,7 +79,9 @@ def _build(expr: Expr, scale: units.Scale) -> Callable[[Env], np.ndarray]:
     n = scale.n
     if not expr.needs:
         value = _build_node(expr, scale, n)({})
-        fixed = np.broadcast_to(np.asarray(value, dtype=bool if expr.type.kind == BOOL else float), _shape(expr.type, n))
+        fixed = np.broadcast_to(
+            np.asarray(value, dtype=bool if expr.type.kind == BOOL else float), _shape(expr.type, n)
+        )
         return lambda env: fixed
     return _build_node(expr, scale, n)
 
@@ -140,7 +142,9 @@ def _build_call(expr: Expr, args: list[Callable], types: list[Type], scale: unit
     return lambda env: impl(*(arg(env) for arg in args))
 
 
-def _arith(fn: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> Callable[[list[Callable], list[Type]], Callable[[Env], np.ndarray]]:
+def _arith(
+    fn: Callable[[np.ndarray, np.ndarray], np.ndarray],
+) -> Callable[[list[Callable], list[Type]], Callable[[Env], np.ndarray]]:
     def build(args: list[Callable], types: list[Type]) -> Callable[[Env], np.ndarray]:
         (a, b), (ta, tb) = args, types
         if ta.kind == tb.kind:
@@ -175,11 +179,11 @@ _OPERATORS: dict[str, Callable[..., Callable[[Env], np.ndarray]]] = {
     "mul": _arith(np.multiply),
     "div": _arith(lambda a, b: np.divide(a, np.where(b == 0, 1.0, b)) * (b != 0)),
     "pow": _arith(np.power),
-    "neg": lambda args, types: (lambda env: -args[0](env)),
-    "not": lambda args, types: (lambda env: ~args[0](env)),
-    "and": lambda args, types: (lambda env: np.logical_and.reduce([arg(env) for arg in args])),
-    "or": lambda args, types: (lambda env: np.logical_or.reduce([arg(env) for arg in args])),
-    "vec": lambda args, types: (lambda env: np.stack([arg(env) for arg in args], axis=-1)),
+    "neg": lambda args, types: lambda env: -args[0](env),
+    "not": lambda args, types: lambda env: ~args[0](env),
+    "and": lambda args, types: lambda env: np.logical_and.reduce([arg(env) for arg in args]),
+    "or": lambda args, types: lambda env: np.logical_or.reduce([arg(env) for arg in args]),
+    "vec": lambda args, types: lambda env: np.stack([arg(env) for arg in args], axis=-1),
     "if": _if,
 }
 

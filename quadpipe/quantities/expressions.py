@@ -34,7 +34,14 @@ This module gathers the language's public names; the work is done in
 (compiling to numpy).
 """
 
-from quadpipe.quantities.checking import Namespace, check, check_expected, compile_quantity, make_vector, resolve_point_name
+from quadpipe.quantities.checking import (
+    Namespace,
+    check,
+    check_expected,
+    compile_quantity,
+    make_vector,
+    resolve_point_name,
+)
 from quadpipe.quantities.evaluation import Compiled, Env, compile_expr, evaluate_constant
 from quadpipe.quantities.functions import FUNCTIONS, LOCAL_HELP, LOCAL_NAMES, SPECIAL_ARGUMENT_FUNCTIONS, Function
 from quadpipe.quantities.nodes import (

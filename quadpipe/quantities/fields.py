@@ -91,7 +91,7 @@ def kind_of(value: Any) -> str:
     return {bool: "true/false", dict: "a mapping", list: "a list", str: "text"}.get(type(value), "a number")
 
 
-VECTOR_INPUT = Annotated[list[Union[float, str]], Field(min_length=3, max_length=3)]
+VECTOR_INPUT = Annotated[list[float | str], Field(min_length=3, max_length=3)]
 """A vector as the JSON Schema shows it: three numbers or expression texts."""
 
 Value = Annotated[Any, PlainValidator(_plain_value, json_schema_input_type=Union[float, str])]

@@ -7,9 +7,9 @@ raises `ExprError` for wrong arguments, and an implementation over arrays of all
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -99,7 +99,11 @@ def _sqrt(types: list[Type], text: str) -> Type:
 def _same_scalar(name: str, count: int | None) -> Callable[[list[Type], str], Type]:
     def rule(types: list[Type], text: str) -> Type:
         if count is None and len(types) < 2:
-            raise ExprError("wrong-arguments", f"in {text!r}: {name}() needs at least 2 arguments", f"see `{FUNCTIONS[name].signature}`")
+            raise ExprError(
+                "wrong-arguments",
+                f"in {text!r}: {name}() needs at least 2 arguments",
+                f"see `{FUNCTIONS[name].signature}`",
+            )
         if count is not None:
             _arity(types, name, count, text)
         for typ in types:
@@ -131,7 +135,9 @@ def _mix(types: list[Type], text: str) -> Type:
     a, b, weight = types
     _need(weight, SCALAR, (units.NONE,), "mix", text)
     if a.kind != b.kind or a.kind == BOOL:
-        raise ExprError("wrong-type", f"in {text!r}: mix() blends two numbers or two vectors, got {a.describe()} and {b.describe()}")
+        raise ExprError(
+            "wrong-type", f"in {text!r}: mix() blends two numbers or two vectors, got {a.describe()} and {b.describe()}"
+        )
     return Type(a.kind, _same_dims([a, b], "mix", text))
 
 
@@ -208,37 +214,181 @@ def _mix_impl(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
 FUNCTIONS: dict[str, Function] = {
     f.name: f
     for f in (
-        Function("sin", "sin(angle)", "sine; takes an angle (`30 deg`) or a plain number of radians", _trig("sin"), np.sin),
+        Function(
+            "sin", "sin(angle)", "sine; takes an angle (`30 deg`) or a plain number of radians", _trig("sin"), np.sin
+        ),
         Function("cos", "cos(angle)", "cosine", _trig("cos"), np.cos),
         Function("tan", "tan(angle)", "tangent", _trig("tan"), np.tan),
-        Function("asin", "asin(number) -> angle", "inverse sine, an angle", _unary_number("asin", Type(SCALAR, units.ANGLE)), lambda x: np.arcsin(np.clip(x, -1, 1))),
-        Function("acos", "acos(number) -> angle", "inverse cosine, an angle", _unary_number("acos", Type(SCALAR, units.ANGLE)), lambda x: np.arccos(np.clip(x, -1, 1))),
-        Function("atan", "atan(number) -> angle", "inverse tangent, an angle", _unary_number("atan", Type(SCALAR, units.ANGLE)), np.arctan),
-        Function("atan2", "atan2(y, x) -> angle", "angle of the point (x, y); y and x in the same unit", _atan2, np.arctan2),
-        Function("sqrt", "sqrt(x)", "square root; halves the unit's powers (`sqrt(g * HP)` is a velocity)", _sqrt, lambda x: np.sqrt(np.maximum(x, 0.0))),
+        Function(
+            "asin",
+            "asin(number) -> angle",
+            "inverse sine, an angle",
+            _unary_number("asin", Type(SCALAR, units.ANGLE)),
+            lambda x: np.arcsin(np.clip(x, -1, 1)),
+        ),
+        Function(
+            "acos",
+            "acos(number) -> angle",
+            "inverse cosine, an angle",
+            _unary_number("acos", Type(SCALAR, units.ANGLE)),
+            lambda x: np.arccos(np.clip(x, -1, 1)),
+        ),
+        Function(
+            "atan",
+            "atan(number) -> angle",
+            "inverse tangent, an angle",
+            _unary_number("atan", Type(SCALAR, units.ANGLE)),
+            np.arctan,
+        ),
+        Function(
+            "atan2", "atan2(y, x) -> angle", "angle of the point (x, y); y and x in the same unit", _atan2, np.arctan2
+        ),
+        Function(
+            "sqrt",
+            "sqrt(x)",
+            "square root; halves the unit's powers (`sqrt(g * HP)` is a velocity)",
+            _sqrt,
+            lambda x: np.sqrt(np.maximum(x, 0.0)),
+        ),
         Function("exp", "exp(number)", "exponential of a plain number", _unary_number("exp", NUMBER), np.exp),
-        Function("log", "log(number)", "natural logarithm of a plain number", _unary_number("log", NUMBER), lambda x: np.log(np.maximum(x, ZERO_NORM))),
+        Function(
+            "log",
+            "log(number)",
+            "natural logarithm of a plain number",
+            _unary_number("log", NUMBER),
+            lambda x: np.log(np.maximum(x, ZERO_NORM)),
+        ),
         Function("abs", "abs(x)", "absolute value, same unit", _same_scalar("abs", 1), np.abs),
         Function("sign", "sign(x) -> number", "-1, 0 or 1", _sign, np.sign),
-        Function("min", "min(a, b, ...)", "smallest of values in the same unit", _same_scalar("min", None), lambda *xs: np.minimum.reduce(xs)),
-        Function("max", "max(a, b, ...)", "largest of values in the same unit", _same_scalar("max", None), lambda *xs: np.maximum.reduce(xs)),
-        Function("clamp", "clamp(x, low, high)", "x kept between low and high (same unit)", _same_scalar("clamp", 3), lambda x, lo, hi: np.minimum(np.maximum(x, lo), hi)),
-        Function("wrap", "wrap(number)", "the fractional part, 0 to 1 (`wrap(phase(gait) - 0.25)` is a phase 0.25 later)", _numbers("wrap", 1), lambda x: np.mod(x, 1.0)),
-        Function("leg_sweep", "leg_sweep(phase, duty)", "a leg's swing back and forth over one cycle: +1 to -1 during stance (phase 0 to duty), back to +1 smoothly during the swing", _numbers("leg_sweep", 2), _leg_sweep),
-        Function("leg_lift", "leg_lift(phase, duty)", "0 during stance, a bump rising to 1 in mid-swing and back to 0 at landing", _numbers("leg_lift", 2), _leg_lift),
-        Function("step", "step(edge, x) -> number", "0 before the edge, 1 from it on (`step(2 s, t)`)", _edges("step", 2), lambda e, x: (x >= e).astype(float)),
-        Function("smoothstep", "smoothstep(edge0, edge1, x) -> number", "0 before edge0, 1 after edge1, a smooth S between", _edges("smoothstep", 3), _smoothstep),
-        Function("mix", "mix(a, b, fraction)", "a blended toward b: a at 0, b at 1 (numbers or vectors)", _mix, _mix_impl),
-        Function("norm", "norm(vector)", "length of a vector, same unit", _vector_rule("norm", 1, lambda t: Type(SCALAR, t[0].dim)), lambda v: np.linalg.norm(v, axis=-1)),
-        Function("normalize", "normalize(vector)", "the vector scaled to length 1 (zero stays zero); no unit", _vector_rule("normalize", 1, lambda t: Type(VECTOR)), _safe_normalize),
-        Function("dot", "dot(a, b)", "dot product; units multiply", _vector_rule("dot", 2, lambda t: Type(SCALAR, t[0].dim * t[1].dim)), lambda a, b: np.sum(a * b, axis=-1)),
-        Function("cross", "cross(a, b)", "cross product; units multiply", _vector_rule("cross", 2, lambda t: Type(VECTOR, t[0].dim * t[1].dim)), lambda a, b: np.cross(a, b)),
-        Function("angle", "angle(a, b) -> angle", "unsigned angle between two vectors, 0 to 180 deg", _vector_rule("angle", 2, lambda t: Type(SCALAR, units.ANGLE)), _angle_between),
-        Function("horizontal", "horizontal(vector)", "the vector with its vertical (world z) part removed", _vector_rule("horizontal", 1, lambda t: t[0]), _horizontal),
-        Function("heading", "heading(vector)", "a vector given in the heading frame (x: where the animal faces, horizontally; z: up) turned into the world", _vector_rule("heading", 1, lambda t: t[0]), None),
-        Function("froude_speed", "froude_speed(number) -> velocity", "the speed at that Froude number for this animal: sqrt(Fr x g x HP)", _froude, None),
-        Function("phase", "phase(cycle) -> number", "where a cycle element is in its period, 0 to 1", lambda types, text: NUMBER, None),
-        Function("contact", "contact(leg) -> condition", "whether a leg's foot (lf, rf, lh, rh) touches something", lambda types, text: CONDITION, None),
+        Function(
+            "min",
+            "min(a, b, ...)",
+            "smallest of values in the same unit",
+            _same_scalar("min", None),
+            lambda *xs: np.minimum.reduce(xs),
+        ),
+        Function(
+            "max",
+            "max(a, b, ...)",
+            "largest of values in the same unit",
+            _same_scalar("max", None),
+            lambda *xs: np.maximum.reduce(xs),
+        ),
+        Function(
+            "clamp",
+            "clamp(x, low, high)",
+            "x kept between low and high (same unit)",
+            _same_scalar("clamp", 3),
+            lambda x, lo, hi: np.minimum(np.maximum(x, lo), hi),
+        ),
+        Function(
+            "wrap",
+            "wrap(number)",
+            "the fractional part, 0 to 1 (`wrap(phase(gait) - 0.25)` is a phase 0.25 later)",
+            _numbers("wrap", 1),
+            lambda x: np.mod(x, 1.0),
+        ),
+        Function(
+            "leg_sweep",
+            "leg_sweep(phase, duty)",
+            "a leg's swing back and forth over one cycle: +1 to -1 during stance (phase 0 to duty), back to +1 smoothly during the swing",
+            _numbers("leg_sweep", 2),
+            _leg_sweep,
+        ),
+        Function(
+            "leg_lift",
+            "leg_lift(phase, duty)",
+            "0 during stance, a bump rising to 1 in mid-swing and back to 0 at landing",
+            _numbers("leg_lift", 2),
+            _leg_lift,
+        ),
+        Function(
+            "step",
+            "step(edge, x) -> number",
+            "0 before the edge, 1 from it on (`step(2 s, t)`)",
+            _edges("step", 2),
+            lambda e, x: (x >= e).astype(float),
+        ),
+        Function(
+            "smoothstep",
+            "smoothstep(edge0, edge1, x) -> number",
+            "0 before edge0, 1 after edge1, a smooth S between",
+            _edges("smoothstep", 3),
+            _smoothstep,
+        ),
+        Function(
+            "mix", "mix(a, b, fraction)", "a blended toward b: a at 0, b at 1 (numbers or vectors)", _mix, _mix_impl
+        ),
+        Function(
+            "norm",
+            "norm(vector)",
+            "length of a vector, same unit",
+            _vector_rule("norm", 1, lambda t: Type(SCALAR, t[0].dim)),
+            lambda v: np.linalg.norm(v, axis=-1),
+        ),
+        Function(
+            "normalize",
+            "normalize(vector)",
+            "the vector scaled to length 1 (zero stays zero); no unit",
+            _vector_rule("normalize", 1, lambda t: Type(VECTOR)),
+            _safe_normalize,
+        ),
+        Function(
+            "dot",
+            "dot(a, b)",
+            "dot product; units multiply",
+            _vector_rule("dot", 2, lambda t: Type(SCALAR, t[0].dim * t[1].dim)),
+            lambda a, b: np.sum(a * b, axis=-1),
+        ),
+        Function(
+            "cross",
+            "cross(a, b)",
+            "cross product; units multiply",
+            _vector_rule("cross", 2, lambda t: Type(VECTOR, t[0].dim * t[1].dim)),
+            lambda a, b: np.cross(a, b),
+        ),
+        Function(
+            "angle",
+            "angle(a, b) -> angle",
+            "unsigned angle between two vectors, 0 to 180 deg",
+            _vector_rule("angle", 2, lambda t: Type(SCALAR, units.ANGLE)),
+            _angle_between,
+        ),
+        Function(
+            "horizontal",
+            "horizontal(vector)",
+            "the vector with its vertical (world z) part removed",
+            _vector_rule("horizontal", 1, lambda t: t[0]),
+            _horizontal,
+        ),
+        Function(
+            "heading",
+            "heading(vector)",
+            "a vector given in the heading frame (x: where the animal faces, horizontally; z: up) turned into the world",
+            _vector_rule("heading", 1, lambda t: t[0]),
+            None,
+        ),
+        Function(
+            "froude_speed",
+            "froude_speed(number) -> velocity",
+            "the speed at that Froude number for this animal: sqrt(Fr x g x HP)",
+            _froude,
+            None,
+        ),
+        Function(
+            "phase",
+            "phase(cycle) -> number",
+            "where a cycle element is in its period, 0 to 1",
+            lambda types, text: NUMBER,
+            None,
+        ),
+        Function(
+            "contact",
+            "contact(leg) -> condition",
+            "whether a leg's foot (lf, rf, lh, rh) touches something",
+            lambda types, text: CONDITION,
+            None,
+        ),
     )
 }
 """Every callable function; `phase` and `contact` read the env directly (their argument is a

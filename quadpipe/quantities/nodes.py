@@ -62,7 +62,11 @@ class Type:
         if self.kind == BOOL:
             return "a condition (true/false)"
         if self.kind == VECTOR:
-            return "a direction vector (no unit)" if self.dim.is_none else f"a vector of {units.dimension_name(self.dim, plural=True)}"
+            return (
+                "a direction vector (no unit)"
+                if self.dim.is_none
+                else f"a vector of {units.dimension_name(self.dim, plural=True)}"
+            )
         return units.dimension_name(self.dim)
 
 
@@ -114,7 +118,7 @@ class Expr:
 
     op: str
     type: Type
-    args: tuple["Expr", ...] = ()
+    args: tuple[Expr, ...] = ()
     value: Any = None
     text: str = ""
 
@@ -158,4 +162,3 @@ def point_key(point: str) -> str:
 def rest_distance_key(a: str, b: str) -> str:
     """The compile-time key of the rest-pose distance between two canonical points."""
     return f"{REST_PREFIX}{a}|{b}"
-

@@ -79,7 +79,9 @@ def rewrite(text: str) -> str:
     while i < len(tokens):
         token = tokens[i]
         if token.type == tokenize.ERRORTOKEN and not token.string.isspace():
-            raise ExprError("expression-syntax", f"cannot read the expression {text!r}: unexpected character {token.string!r}")
+            raise ExprError(
+                "expression-syntax", f"cannot read the expression {text!r}: unexpected character {token.string!r}"
+            )
         if _is_unit_token(tokens, i) and kinds and kinds[-1] == tokenize.NUMBER:
             start = _numeric_run_start(out, kinds)
             unit_tokens, i = _unit_run(tokens, i)
@@ -97,7 +99,11 @@ def rewrite(text: str) -> str:
 def _syntax_hint(text: str) -> str:
     """A hint for a syntax error, from common mistakes."""
     try:
-        tokens = [t for t in tokenize.generate_tokens(io.StringIO(text).readline) if t.type in (tokenize.NAME, tokenize.NUMBER, tokenize.OP)]
+        tokens = [
+            t
+            for t in tokenize.generate_tokens(io.StringIO(text).readline)
+            if t.type in (tokenize.NAME, tokenize.NUMBER, tokenize.OP)
+        ]
     except (tokenize.TokenError, SyntaxError):
         return "check brackets and operators"
     for a, b in zip(tokens, tokens[1:]):
@@ -130,7 +136,9 @@ def parse(text: str) -> ast.expr:
     try:
         tree = ast.parse(code, mode="eval")
     except SyntaxError as exc:
-        raise ExprError("expression-syntax", f"cannot read the expression {text!r}: {exc.msg}", _syntax_hint(text)) from None
+        raise ExprError(
+            "expression-syntax", f"cannot read the expression {text!r}: {exc.msg}", _syntax_hint(text)
+        ) from None
     for node in ast.walk(tree):
         if not isinstance(node, _ALLOWED_NODES):
             raise ExprError(
@@ -138,8 +146,14 @@ def parse(text: str) -> ast.expr:
                 f"{type(node).__name__.lower()} is not allowed in expressions: {text!r}",
                 "expressions may use numbers with units, + - * / ^, comparisons, and/or/not, `a if c else b`, [x, y, z] and the listed functions",
             )
-        if isinstance(node, ast.Constant) and (isinstance(node.value, bool) or not isinstance(node.value, (int, float))):
-            raise ExprError("forbidden-syntax", f"only numbers may appear literally in {text!r}", "remove the quotes or the text value")
+        if isinstance(node, ast.Constant) and (
+            isinstance(node.value, bool) or not isinstance(node.value, (int, float))
+        ):
+            raise ExprError(
+                "forbidden-syntax",
+                f"only numbers may appear literally in {text!r}",
+                "remove the quotes or the text value",
+            )
     return tree.body
 
 

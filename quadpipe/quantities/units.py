@@ -13,9 +13,10 @@ checked, and are compiled to radians.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import TYPE_CHECKING, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -43,13 +44,13 @@ class Dim:
         """The four exponents: length, mass, time, angle."""
         return (self.length, self.mass, self.time, self.angle)
 
-    def __mul__(self, other: "Dim") -> "Dim":
+    def __mul__(self, other: Dim) -> Dim:
         return Dim(*(a + b for a, b in zip(self.exponents, other.exponents)))
 
-    def __truediv__(self, other: "Dim") -> "Dim":
+    def __truediv__(self, other: Dim) -> Dim:
         return Dim(*(a - b for a, b in zip(self.exponents, other.exponents)))
 
-    def __pow__(self, power: Fraction | int) -> "Dim":
+    def __pow__(self, power: Fraction | int) -> Dim:
         return Dim(*(a * Fraction(power) for a in self.exponents))
 
     @property
@@ -184,7 +185,7 @@ class Scale:
         hp: float | Sequence[float],
         mass_kg: float | Sequence[float],
         rest_points: Mapping[str, np.ndarray] | None = None,
-    ) -> "Scale":
+    ) -> Scale:
         """Build a scale from pelvis heights (m) and masses (kg), one per animal."""
         hp_arr = np.atleast_1d(np.asarray(hp, dtype=float))
         mass = np.broadcast_to(np.atleast_1d(np.asarray(mass_kg, dtype=float)), hp_arr.shape).copy()
@@ -197,7 +198,7 @@ class Scale:
         return np.asarray(getattr(self, unit.scale_key), dtype=float)
 
 
-def scale_for_animals(animals: Sequence["Animal"]) -> Scale:
+def scale_for_animals(animals: Sequence[Animal]) -> Scale:
     """The scale of a list of loaded animals, with rest positions of every body point.
 
     Every bone gives three points: `<role>.start`, `<role>.end` and `<role>.mid`.

@@ -29,20 +29,56 @@ The modules, in the order a file is made:
 
 from __future__ import annotations
 
-from quadpipe.render.gl import GL_VARIABLE, gl_backend  # first: sets MUJOCO_GL
 from quadpipe.render.camera import Camera, CameraView, camera_views
 from quadpipe.render.display import SHEET_MULTISAMPLES, SUN_DIRECTION, VIDEO_MULTISAMPLES, display_spec
+from quadpipe.render.gl import GL_VARIABLE, gl_backend  # first: sets MUJOCO_GL
 from quadpipe.render.overlays import (
-    BUILTIN_OVERLAYS, DEFAULT_OVERLAYS, TRAIL_SECONDS, Overlay, builtin_overlays, contact_overlay, trail_overlay,
+    BUILTIN_OVERLAYS,
+    DEFAULT_OVERLAYS,
+    TRAIL_SECONDS,
+    Overlay,
+    builtin_overlays,
+    contact_overlay,
+    trail_overlay,
 )
-from quadpipe.render.renderer import DEFAULT_HEIGHT, DEFAULT_WIDTH, ClipRenderer, output_frames, render_frames, render_fps
+from quadpipe.render.renderer import (
+    DEFAULT_HEIGHT,
+    DEFAULT_WIDTH,
+    ClipRenderer,
+    output_frames,
+    render_fps,
+    render_frames,
+)
 from quadpipe.render.sheet import SHEET_GRID, contact_sheet, sheet_frames, stamp_time
 from quadpipe.render.writers import RENDER_FORMATS, render_clip
 
 __all__ = [
-    "BUILTIN_OVERLAYS", "DEFAULT_HEIGHT", "DEFAULT_OVERLAYS", "DEFAULT_WIDTH", "GL_VARIABLE", "RENDER_FORMATS",
-    "SHEET_GRID", "SHEET_MULTISAMPLES", "SUN_DIRECTION", "TRAIL_SECONDS", "VIDEO_MULTISAMPLES", "Camera",
-    "CameraView", "ClipRenderer", "Overlay", "builtin_overlays", "camera_views", "contact_overlay", "contact_sheet",
-    "display_spec", "gl_backend", "output_frames", "render_clip", "render_fps", "render_frames", "sheet_frames",
-    "stamp_time", "trail_overlay",
+    "BUILTIN_OVERLAYS",
+    "DEFAULT_HEIGHT",
+    "DEFAULT_OVERLAYS",
+    "DEFAULT_WIDTH",
+    "GL_VARIABLE",
+    "RENDER_FORMATS",
+    "SHEET_GRID",
+    "SHEET_MULTISAMPLES",
+    "SUN_DIRECTION",
+    "TRAIL_SECONDS",
+    "VIDEO_MULTISAMPLES",
+    "Camera",
+    "CameraView",
+    "ClipRenderer",
+    "Overlay",
+    "builtin_overlays",
+    "camera_views",
+    "contact_overlay",
+    "contact_sheet",
+    "display_spec",
+    "gl_backend",
+    "output_frames",
+    "render_clip",
+    "render_fps",
+    "render_frames",
+    "sheet_frames",
+    "stamp_time",
+    "trail_overlay",
 ]

@@ -134,13 +134,13 @@ def _smooth_both_ways(path: np.ndarray, time_constant_frames: float) -> np.ndarr
     if time_constant_frames <= 0 or len(path) < 2:
         return path.copy()
     pad = min(len(path) - 1, math.ceil(SMOOTHING_PAD_TIME_CONSTANTS * time_constant_frames))
-    smooth = np.concatenate([2 * path[0] - path[pad:0:-1], path, 2 * path[-1] - path[-2:-pad - 2:-1]])
+    smooth = np.concatenate([2 * path[0] - path[pad:0:-1], path, 2 * path[-1] - path[-2 : -pad - 2 : -1]])
     inertia = math.exp(-1.0 / time_constant_frames)  # weight of the previous smoothed value
     for frame in range(1, len(smooth)):
         smooth[frame] += inertia * (smooth[frame - 1] - smooth[frame])
     for frame in range(len(smooth) - 2, -1, -1):
         smooth[frame] += inertia * (smooth[frame + 1] - smooth[frame])
-    return smooth[pad:pad + len(path)]
+    return smooth[pad : pad + len(path)]
 
 
 def _fixed_target(path: np.ndarray, camera: Camera, distance: float) -> tuple[np.ndarray, float]:

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Sequence
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from quadpipe.clip.model import Clip, Shape
 from quadpipe.render.camera import FOVY_DEG
@@ -44,7 +45,7 @@ PLANE_GRID_M = 1.0
 """Spacing of a plane's rendering grid (MuJoCo subdivides planes for lighting), metres."""
 
 
-def display_spec(clip: Clip, width: int, height: int, multisamples: int = VIDEO_MULTISAMPLES) -> "mujoco.MjSpec":
+def display_spec(clip: Clip, width: int, height: int, multisamples: int = VIDEO_MULTISAMPLES) -> mujoco.MjSpec:
     """A physics-free MuJoCo model that shows the clip: mocap bodies, terrain, floor, sky, sun.
 
     Bodies, in mocap order: every bone of every animal (`<animal>/<role>`), every prop
@@ -59,12 +60,22 @@ def display_spec(clip: Clip, width: int, height: int, multisamples: int = VIDEO_
     spec.compiler.degree = False
     _set_visual(spec, clip, width, height, multisamples)
     spec.add_texture(
-        name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-        rgb1=list(SKY_TOP_RGB), rgb2=list(SKY_HORIZON_RGB), width=256, height=256,
+        name="sky",
+        type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+        rgb1=list(SKY_TOP_RGB),
+        rgb2=list(SKY_HORIZON_RGB),
+        width=256,
+        height=256,
     )
     spec.add_texture(
-        name="checker", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-        rgb1=list(CHECKER_RGB[0]), rgb2=list(CHECKER_RGB[1]), width=256, height=256,
+        name="checker",
+        type=mujoco.mjtTexture.mjTEXTURE_2D,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+        rgb1=list(CHECKER_RGB[0]),
+        rgb2=list(CHECKER_RGB[1]),
+        width=256,
+        height=256,
     )
     repeat = 1.0 / (2 * CHECKER_SQUARE_HP * scale)
     spec.add_material(name="checker", textures=["", "checker"], texrepeat=[repeat, repeat], texuniform=True)
@@ -77,13 +88,16 @@ def display_spec(clip: Clip, width: int, height: int, multisamples: int = VIDEO_
         _add_geom(spec.worldbody, shape, material="checker" if shape.kind == "plane" else None)
     sun = spec.worldbody.add_body(name="sun", mocap=True)
     sun.add_light(
-        name="sun", type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, dir=list(SUN_DIRECTION),
-        diffuse=[0.8, 0.8, 0.8], castshadow=True,
+        name="sun",
+        type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
+        dir=list(SUN_DIRECTION),
+        diffuse=[0.8, 0.8, 0.8],
+        castshadow=True,
     )
     return spec
 
 
-def _set_visual(spec: "mujoco.MjSpec", clip: Clip, width: int, height: int, multisamples: int) -> None:
+def _set_visual(spec: mujoco.MjSpec, clip: Clip, width: int, height: int, multisamples: int) -> None:
     """Buffer size, shadows, anti-aliasing, clipping planes and headlight of the display model."""
     scale = clip_scale(clip)
     visual = spec.visual
@@ -99,26 +113,33 @@ def _set_visual(spec: "mujoco.MjSpec", clip: Clip, width: int, height: int, mult
     spec.stat.center = list(clip.animals[0].rest_start[0])
 
 
-def _add_mocap_body(spec: "mujoco.MjSpec", name: str, shapes: Sequence[Shape]) -> None:
+def _add_mocap_body(spec: mujoco.MjSpec, name: str, shapes: Sequence[Shape]) -> None:
     body = spec.worldbody.add_body(name=name, mocap=True)
     for shape in shapes:
         _add_geom(body, shape)
 
 
-def _add_geom(body: "mujoco.MjsBody", shape: Shape, material: str | None = None) -> None:
+def _add_geom(body: mujoco.MjsBody, shape: Shape, material: str | None = None) -> None:
     """A shape as a display-only geom (it collides with nothing)."""
     import mujoco
 
     kinds = {
-        "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE, "box": mujoco.mjtGeom.mjGEOM_BOX,
-        "sphere": mujoco.mjtGeom.mjGEOM_SPHERE, "plane": mujoco.mjtGeom.mjGEOM_PLANE,
+        "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
+        "box": mujoco.mjtGeom.mjGEOM_BOX,
+        "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+        "plane": mujoco.mjtGeom.mjGEOM_PLANE,
     }
     size = list(shape.size) + [0.0] * (3 - len(shape.size))
     if shape.kind == "plane":
         size[2] = PLANE_GRID_M
     geom = body.add_geom(
-        type=kinds[shape.kind], size=size, pos=list(shape.pos), quat=list(shape.quat),
-        rgba=list(shape.rgba), contype=0, conaffinity=0,
+        type=kinds[shape.kind],
+        size=size,
+        pos=list(shape.pos),
+        quat=list(shape.quat),
+        rgba=list(shape.rgba),
+        contype=0,
+        conaffinity=0,
     )
     if material is not None:
         geom.material = material

@@ -3,16 +3,17 @@ contacts, the pelvis trail), added to each frame's scene as decoration geoms."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable, Literal, Sequence
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from quadpipe.anatomy import roles
 from quadpipe.anatomy.roles import TOE_BONES
+from quadpipe.clip.kinematics import rotate
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import QuadpipeError, did_you_mean
-from quadpipe.clip.kinematics import rotate
 from quadpipe.render.poses import clip_scale, finite_hold
 
 if TYPE_CHECKING:
@@ -117,7 +118,7 @@ def trail_overlay(clip: Clip) -> Overlay:
             count = frame - first
             columns = slice(index * history, index * history + count)
             starts[frame, columns] = path[first:frame]
-            ends[frame, columns] = path[first + 1:frame + 1]
+            ends[frame, columns] = path[first + 1 : frame + 1]
     return Overlay("trail", "line", starts, ends, TRAIL_RGBA, TRAIL_WIDTH_HP * clip_scale(clip))
 
 
@@ -139,7 +140,7 @@ def builtin_overlays(clip: Clip, names: Sequence[str] = DEFAULT_OVERLAYS) -> lis
     return [BUILTIN_OVERLAYS[name](clip) for name in names]
 
 
-def draw_overlay(scene: "mujoco.MjvScene", overlay: Overlay, frame: int) -> None:
+def draw_overlay(scene: mujoco.MjvScene, overlay: Overlay, frame: int) -> None:
     """Append one frame of an overlay to the scene as decoration geoms."""
     import mujoco
 
@@ -148,7 +149,8 @@ def draw_overlay(scene: "mujoco.MjvScene", overlay: Overlay, frame: int) -> None
     rgba = np.array(overlay.rgba, dtype=np.float32)
     radius = overlay.width / 2
     geom_type = {
-        "line": mujoco.mjtGeom.mjGEOM_CAPSULE, "arrow": mujoco.mjtGeom.mjGEOM_ARROW,
+        "line": mujoco.mjtGeom.mjGEOM_CAPSULE,
+        "arrow": mujoco.mjtGeom.mjGEOM_ARROW,
         "point": mujoco.mjtGeom.mjGEOM_SPHERE,
     }[overlay.kind]
     identity = np.eye(3).ravel()

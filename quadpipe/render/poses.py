@@ -23,7 +23,8 @@ def check_clip(clip: Clip) -> None:
         )
     if not np.isfinite(clip.animals[0].positions).all(axis=(1, 2)).any():
         raise QuadpipeError.single(
-            "no-finite-frame", f"animal {clip.animals[0].name!r} has no frame with a finite pose: nothing to show",
+            "no-finite-frame",
+            f"animal {clip.animals[0].name!r} has no frame with a finite pose: nothing to show",
             hint="the simulation diverged at once; check the clip's metadata status",
         )
 

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import math
 import time
-from typing import TYPE_CHECKING, Iterator, Sequence
+from collections.abc import Iterator, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -85,7 +86,7 @@ class ClipRenderer:
         self._viewport = mujoco.MjrRect(0, 0, width, height)
         self._pixels = np.zeros((height, width, 3), dtype=np.uint8)
 
-    def __enter__(self) -> "ClipRenderer":
+    def __enter__(self) -> ClipRenderer:
         return self
 
     def __exit__(self, *_exc) -> None:
@@ -143,7 +144,7 @@ def _unit(vector: Sequence[float]) -> np.ndarray:
     return vector / np.linalg.norm(vector)
 
 
-def _keep_planes_out_of_shadow_map(scene: "mujoco.MjvScene") -> None:
+def _keep_planes_out_of_shadow_map(scene: mujoco.MjvScene) -> None:
     """Mark the scene's planes as decoration, which MuJoCo leaves out of the shadow map.
 
     A plane shadows nothing above it, and MuJoCo's shadow lookup is off by up to a shadow-map
@@ -201,7 +202,11 @@ def render_frames(
 
 
 def render_fps(
-    clip: Clip, frames: int = 60, *, width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
+    clip: Clip,
+    frames: int = 60,
+    *,
+    width: int = DEFAULT_WIDTH,
+    height: int = DEFAULT_HEIGHT,
     overlays: Sequence[Overlay] | None = None,
 ) -> float:
     """Frames per second of rendering (scene update, draw, read back), model building excluded.

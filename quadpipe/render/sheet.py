@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -72,7 +72,7 @@ def contact_sheet(
         for tile, frame in enumerate(frames):
             row, column = divmod(tile, columns)
             picture = stamp_time(renderer.render(int(frame)), frame / clip.fps)
-            sheet[row * height:(row + 1) * height, column * width:(column + 1) * width] = picture
+            sheet[row * height : (row + 1) * height, column * width : (column + 1) * width] = picture
     return sheet
 
 

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Sequence
 
 import numpy as np
 
-from quadpipe.core.atomic import atomic_path
 from quadpipe.clip.model import Clip
+from quadpipe.core.atomic import atomic_path
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.formats import FileFormat, FormatTable
 from quadpipe.render.camera import Camera, check_camera
@@ -29,11 +29,13 @@ GIF_COLOURS = 256
 """Palette size of each GIF frame (octree, no dithering: 5x faster than Pillow's default and
 half the file size, with only slight banding in the sky)."""
 
-RENDER_FORMATS = FormatTable((
-    FileFormat((".mp4",), __name__, "write_mp4", "H.264 video", "imageio-ffmpeg", "imageio_ffmpeg"),
-    FileFormat((".gif",), __name__, "write_gif", "animated GIF", "pillow", "PIL"),
-    FileFormat((".png",), __name__, "write_sheet", "contact sheet", "pillow", "PIL"),
-))
+RENDER_FORMATS = FormatTable(
+    (
+        FileFormat((".mp4",), __name__, "write_mp4", "H.264 video", "imageio-ffmpeg", "imageio_ffmpeg"),
+        FileFormat((".gif",), __name__, "write_gif", "animated GIF", "pillow", "PIL"),
+        FileFormat((".png",), __name__, "write_sheet", "contact sheet", "pillow", "PIL"),
+    )
+)
 """What `render_clip` writes, by file suffix; each writer takes the clip, the path and the `RenderOptions`."""
 
 
@@ -103,7 +105,8 @@ class RenderOptions:
             overlay.check(clip.frame_count)
         if suffix == ".mp4" and (self.width % 2 or self.height % 2):
             raise QuadpipeError.single(
-                "bad-size", f"H.264 video needs an even width and height, not {self.width}x{self.height}",
+                "bad-size",
+                f"H.264 video needs an even width and height, not {self.width}x{self.height}",
                 hint="give even sizes, e.g. 640x480",
             )
         if suffix == ".png":
@@ -125,8 +128,14 @@ def write_mp4(clip: Clip, path: Path, options: RenderOptions) -> None:
     import imageio_ffmpeg
 
     writer = imageio_ffmpeg.write_frames(
-        str(path), (options.width, options.height), fps=options.frame_rate(clip), codec="libx264",
-        pix_fmt_out="yuv420p", quality=None, macro_block_size=2, ffmpeg_log_level="error",
+        str(path),
+        (options.width, options.height),
+        fps=options.frame_rate(clip),
+        codec="libx264",
+        pix_fmt_out="yuv420p",
+        quality=None,
+        macro_block_size=2,
+        ffmpeg_log_level="error",
         ffmpeg_timeout=VIDEO_TIMEOUT_S,
         output_params=["-crf", str(VIDEO_CRF), "-preset", VIDEO_PRESET, "-movflags", "+faststart"],
     )
@@ -156,7 +165,11 @@ def write_sheet(clip: Clip, path: Path, options: RenderOptions) -> None:
     from PIL import Image
 
     sheet = contact_sheet(
-        clip, width=options.width, height=options.height, camera=options.camera, overlays=options.overlays,
+        clip,
+        width=options.width,
+        height=options.height,
+        camera=options.camera,
+        overlays=options.overlays,
         grid=options.grid,
     )
     Image.fromarray(sheet).save(path, format="PNG")

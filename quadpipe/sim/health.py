@@ -7,7 +7,7 @@ simulation without telling anyone. These functions make the trouble visible.
 from __future__ import annotations
 
 import contextlib
-from typing import Iterator
+from collections.abc import Iterator
 
 import mujoco
 import numpy as np

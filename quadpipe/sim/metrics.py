@@ -22,7 +22,12 @@ def _injected(clip: Clip, track) -> dict:
         "net_force_mean_bw": float(np.linalg.norm(force, axis=1).mean() / weight),
         "net_force_max_bw": float(np.linalg.norm(force, axis=1).max() / weight),
         "work_j": float(power[1:].sum() / clip.fps),
-        "work_j_per_kg_m": float(power[1:].sum() / clip.fps / track.mass_kg / max(np.linalg.norm(track.positions[-1, 0, :2] - track.positions[0, 0, :2]), 1e-9)),
+        "work_j_per_kg_m": float(
+            power[1:].sum()
+            / clip.fps
+            / track.mass_kg
+            / max(np.linalg.norm(track.positions[-1, 0, :2] - track.positions[0, 0, :2]), 1e-9)
+        ),
     }
 
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
@@ -48,7 +48,8 @@ class Recorder:
         self._bones = [np.array([model.body(f"{p.name}/{role}").id for role in ROLES]) for p in placements]
         animal_bodies = np.concatenate(self._bones) if self._bones else np.zeros(0, int)
         self._props = [
-            body for body in range(1, model.nbody)
+            body
+            for body in range(1, model.nbody)
             if model.body_jntnum[body] == 1
             and model.jnt_type[model.body_jntadr[body]] == mujoco.mjtJoint.mjJNT_FREE
             and body not in animal_bodies
@@ -117,7 +118,10 @@ class Recorder:
         skeleton = placement.built.animal.skeleton
         offset = self.model.body_pos[bones[0]] - skeleton["pelvis"].start  # bind pose faces +x, see Clip
         shapes = [
-            [geom_shape(self.model, g) for g in range(self.model.body_geomadr[b], self.model.body_geomadr[b] + self.model.body_geomnum[b])]
+            [
+                geom_shape(self.model, g)
+                for g in range(self.model.body_geomadr[b], self.model.body_geomadr[b] + self.model.body_geomnum[b])
+            ]
             for b in bones
         ]
         return AnimalTrack(
@@ -132,6 +136,5 @@ class Recorder:
             rotations=rotations[:, bones],
             pelvis_height=placement.built.animal.pelvis_height,
             mass_kg=placement.built.animal.mass_kg,
-            foot_contacts=contacts[:, index * len(LEGS):(index + 1) * len(LEGS)],
+            foot_contacts=contacts[:, index * len(LEGS) : (index + 1) * len(LEGS)],
         )
-

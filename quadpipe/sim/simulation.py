@@ -12,16 +12,17 @@ warning or body flung far away stops the run with a message naming the frame and
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable, Mapping, Protocol, Sequence
+from typing import TYPE_CHECKING, Protocol
 
 import mujoco
 import numpy as np
 
-from quadpipe.sim import health as physics
 from quadpipe.animals import sizing
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import QuadpipeError
+from quadpipe.sim import health as physics
 from quadpipe.sim.metrics import clip_metrics
 from quadpipe.sim.recording import Recorder
 from quadpipe.world.placement import Placement
@@ -106,7 +107,9 @@ class Simulation:
         far_m: a body farther than this from the origin has been flung away (a blow-up).
     """
 
-    def __init__(self, setup: "SceneSetup", extra_controllers: Sequence[Controller] = (), metadata: dict[str, str] | None = None):
+    def __init__(
+        self, setup: SceneSetup, extra_controllers: Sequence[Controller] = (), metadata: dict[str, str] | None = None
+    ):
         self.setup = setup
         self.model = setup.spec.compile()
         self.data = mujoco.MjData(self.model)
@@ -126,7 +129,7 @@ class Simulation:
         scene: str | None = None,
         parameters: Mapping[str, str] | None = None,
         extra_controllers: Sequence[Controller] = (),
-    ) -> "Simulation":
+    ) -> Simulation:
         """An animal (and the scene's other animals) under a controller, in a scene, at t = 0.
 
         Args:
@@ -166,7 +169,7 @@ class Simulation:
 
     def compile_controller(
         self, controller: str, parameters: Mapping[str, str] | None = None, goals: Mapping[str, str] | None = None
-    ) -> tuple["CompiledController", tuple[str, ...]]:
+    ) -> tuple[CompiledController, tuple[str, ...]]:
         """A controller compiled for this world's animals, and the files it was read from.
 
         The controller is offered the scene's goals, and `goals` over them (it takes those it
@@ -180,7 +183,9 @@ class Simulation:
         offered = self.setup.goal_parameters | dict(goals or {})
         return compile_for(controller, self.placements, parameters, scene_parameters=offered)
 
-    def use_controller(self, compiled: "CompiledController | None", *, carry_over: bool = False) -> "ControllerRuntime | None":
+    def use_controller(
+        self, compiled: CompiledController | None, *, carry_over: bool = False
+    ) -> ControllerRuntime | None:
         """Drive the animals with a fresh runtime of `compiled` (None: none), replacing the current one.
 
         The replaced runtime is released first (the model's damping back to the compiled values).
@@ -228,7 +233,9 @@ class Simulation:
             controller.apply(self.model, self.data)
         mujoco.mj_step2(self.model, self.data)
 
-    def record(self, seconds: float, *, on_frame: Callable[[float], None] | None = None, fps: float = sizing.FRAME_RATE) -> Clip:
+    def record(
+        self, seconds: float, *, on_frame: Callable[[float], None] | None = None, fps: float = sizing.FRAME_RATE
+    ) -> Clip:
         """Simulate `seconds` and record one frame every 1/fps s (the first frame is the start).
 
         Args:
@@ -292,7 +299,7 @@ class Result:
 
     clip: Clip
     metrics: dict
-    runtime: "ControllerRuntime | None"
+    runtime: ControllerRuntime | None
 
 
 def simulate(
@@ -319,6 +326,8 @@ def simulate(
         fps: recorded frames per second (30, the thesis's; a rat's walk needs more to be
             analysed: its stride lasts 0.17 s).
     """
-    simulation = Simulation.build(animal, controller, scene=scene, parameters=parameters, extra_controllers=extra_controllers)
+    simulation = Simulation.build(
+        animal, controller, scene=scene, parameters=parameters, extra_controllers=extra_controllers
+    )
     clip = simulation.record(seconds, on_frame=on_frame, fps=fps)
     return Result(clip, clip_metrics(clip), simulation.runtime)

@@ -24,4 +24,14 @@ from quadpipe.world.loading import SCENE_KIND, SceneSpec, available_scenes, load
 from quadpipe.world.placement import Placement, build_world
 from quadpipe.world.schema import scene_json_schema
 
-__all__ = ["SCENE_KIND", "Placement", "SceneSetup", "SceneSpec", "available_scenes", "build_scene", "build_world", "load_scene", "scene_json_schema"]
+__all__ = [
+    "SCENE_KIND",
+    "Placement",
+    "SceneSetup",
+    "SceneSpec",
+    "available_scenes",
+    "build_scene",
+    "build_world",
+    "load_scene",
+    "scene_json_schema",
+]

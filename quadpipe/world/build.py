@@ -3,9 +3,9 @@ objects and the animals placed in it (`build_scene` -> `SceneSetup`)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Sequence
 
 import mujoco
 import numpy as np
@@ -106,7 +106,9 @@ def build_scene(scene: SceneSpec, species: Sequence[BuiltAnimal] | BuiltAnimal) 
     placements = [_placement(values, scene, slot) for slot in slots]
     ground = scene.file.ground
     friction = (ground or Ground()).friction
-    spec = world_spec(scene.name, [placement.built for placement in placements], friction if ground is not None else None)
+    spec = world_spec(
+        scene.name, [placement.built for placement in placements], friction if ground is not None else None
+    )
     add_terrain(spec, scene, values, friction)
     attach_animals(spec, placements, friction)
     tau = sizing.constraint_time_constant(hp)
@@ -114,7 +116,9 @@ def build_scene(scene: SceneSpec, species: Sequence[BuiltAnimal] | BuiltAnimal) 
     throws = plan_throws(scene, values, [placement.name for placement in placements], -float(spec.option.gravity[2]))
     add_thrown(spec, throws, tau, hp)
     goals = {name: goal_text(scene, values, name) for name in scene.file.goals}
-    return SceneSetup(scene, spec, placements, [placement.heading for placement in placements], goals, throws, velocities)
+    return SceneSetup(
+        scene, spec, placements, [placement.heading for placement in placements], goals, throws, velocities
+    )
 
 
 def _slots(scene: SceneSpec, species: Sequence[BuiltAnimal] | BuiltAnimal) -> list[_Slot]:

@@ -14,15 +14,26 @@ import math
 import re
 import types
 import typing
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Annotated, Any, Callable, Iterator, Literal, Union
+from typing import Annotated, Any, Literal, Union
 
 import pydantic
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
 
 from quadpipe.quantities import fields, units
 from quadpipe.quantities.expressions import SCALAR, VECTOR, Expect
-from quadpipe.quantities.fields import NON_NEGATIVE, POSITIVE, Bounds, Items, Quantity, Value, described, quantities, quantity
+from quadpipe.quantities.fields import (
+    NON_NEGATIVE,
+    POSITIVE,
+    Bounds,
+    Items,
+    Quantity,
+    Value,
+    described,
+    quantities,
+    quantity,
+)
 
 SCHEMA_VERSION = 1
 """The only `schema:` version this quadpipe reads."""
@@ -80,37 +91,67 @@ class _Model(BaseModel):
 class Ground(_Model):
     """The floor: an endless plane at z = 0."""
 
-    friction: Annotated[float, Field(1.0, gt=0, description="Sliding friction of the floor and the terrain. MuJoCo lets the bones decide their contacts (so that each animal keeps its own softness), so the animals' bones take this friction too.")]
+    friction: Annotated[
+        float,
+        Field(
+            1.0,
+            gt=0,
+            description="Sliding friction of the floor and the terrain. MuJoCo lets the bones decide their contacts (so that each animal keeps its own softness), so the animals' bones take this friction too.",
+        ),
+    ]
 
 
 def _ground_shorthand(value: Any) -> Any:
     return None if value == "none" else value
 
 
-GroundField = Annotated[Ground | None, BeforeValidator(_ground_shorthand, json_schema_input_type=Union[Ground, Literal["none"]])]
+GroundField = Annotated[
+    Ground | None, BeforeValidator(_ground_shorthand, json_schema_input_type=Union[Ground, Literal["none"]])
+]
 
 
 class _Strip(_Model):
-    start: Annotated[quantity(LENGTH), Field(description=described("Where it begins along x (forward) from the origin.", LENGTH))]
-    width: Annotated[quantity(LENGTH, POSITIVE), Field("8 HP", description=described("Its extent across (along y), centred on y = 0.", LENGTH))]
+    start: Annotated[
+        quantity(LENGTH), Field(description=described("Where it begins along x (forward) from the origin.", LENGTH))
+    ]
+    width: Annotated[
+        quantity(LENGTH, POSITIVE),
+        Field("8 HP", description=described("Its extent across (along y), centred on y = 0.", LENGTH)),
+    ]
 
 
 class Slope(_Strip):
     """A ramp rising along +x, then a flat top."""
 
     type: Annotated[Literal["slope"], Field(description="Terrain type.")]
-    angle: Annotated[quantity(ANGLE, RAMP_ANGLE), Field(description=described(f"How steep it is (0 to {MAX_RAMP_ANGLE_DEG:g} deg).", ANGLE))]
-    length: Annotated[quantity(LENGTH, POSITIVE), Field(description=described("Horizontal length of the ramp; it rises length x tan(angle).", LENGTH))]
-    top: Annotated[quantity(LENGTH, NON_NEGATIVE), Field("2 HP", description=described("Length of the flat top after the ramp (0: the ramp ends in a drop).", LENGTH))]
+    angle: Annotated[
+        quantity(ANGLE, RAMP_ANGLE),
+        Field(description=described(f"How steep it is (0 to {MAX_RAMP_ANGLE_DEG:g} deg).", ANGLE)),
+    ]
+    length: Annotated[
+        quantity(LENGTH, POSITIVE),
+        Field(description=described("Horizontal length of the ramp; it rises length x tan(angle).", LENGTH)),
+    ]
+    top: Annotated[
+        quantity(LENGTH, NON_NEGATIVE),
+        Field(
+            "2 HP", description=described("Length of the flat top after the ramp (0: the ramp ends in a drop).", LENGTH)
+        ),
+    ]
 
 
 class Hill(_Strip):
     """A ramp up, a flat top, the same ramp down."""
 
     type: Annotated[Literal["hill"], Field(description="Terrain type.")]
-    angle: Annotated[quantity(ANGLE, RAMP_ANGLE), Field(description=described(f"How steep both sides are (0 to {MAX_RAMP_ANGLE_DEG:g} deg).", ANGLE))]
+    angle: Annotated[
+        quantity(ANGLE, RAMP_ANGLE),
+        Field(description=described(f"How steep both sides are (0 to {MAX_RAMP_ANGLE_DEG:g} deg).", ANGLE)),
+    ]
     height: Annotated[quantity(LENGTH, POSITIVE), Field(description=described("Height of the top.", LENGTH))]
-    top: Annotated[quantity(LENGTH, NON_NEGATIVE), Field("2 HP", description=described("Length of the flat top.", LENGTH))]
+    top: Annotated[
+        quantity(LENGTH, NON_NEGATIVE), Field("2 HP", description=described("Length of the flat top.", LENGTH))
+    ]
 
 
 class Stairs(_Strip):
@@ -118,24 +159,41 @@ class Stairs(_Strip):
 
     type: Annotated[Literal["stairs"], Field(description="Terrain type.")]
     step_height: Annotated[quantity(LENGTH, POSITIVE), Field(description=described("Rise of each step.", LENGTH))]
-    step_depth: Annotated[quantity(LENGTH, POSITIVE), Field(description=described("Depth (tread) of each step.", LENGTH))]
+    step_depth: Annotated[
+        quantity(LENGTH, POSITIVE), Field(description=described("Depth (tread) of each step.", LENGTH))
+    ]
     steps: Annotated[int, Field(ge=1, description="Number of steps.")]
-    direction: Annotated[Literal["up", "down"], Field("up", description="`up`: the stairs climb from `start`, with the landing after them; `down`: the landing ends at `start` (an animal can start on it) and the stairs descend from there.")]
-    landing: Annotated[quantity(LENGTH, NON_NEGATIVE), Field("4 HP", description=described("Length of the flat landing at the top.", LENGTH))]
+    direction: Annotated[
+        Literal["up", "down"],
+        Field(
+            "up",
+            description="`up`: the stairs climb from `start`, with the landing after them; `down`: the landing ends at `start` (an animal can start on it) and the stairs descend from there.",
+        ),
+    ]
+    landing: Annotated[
+        quantity(LENGTH, NON_NEGATIVE),
+        Field("4 HP", description=described("Length of the flat landing at the top.", LENGTH)),
+    ]
 
 
 class TerrainBox(_Model):
     """Any static block."""
 
     type: Annotated[Literal["box"], Field(description="Terrain type.")]
-    at: Annotated[quantity(POINT), Field(description=described("Centre of the box, in world coordinates (x forward, y left, z up).", POINT))]
-    size: Annotated[quantities(LENGTH, 3, POSITIVE), Field(description="Full length (x), width (y) and height (z), e.g. `[2 HP, 8 HP, 0.3 HP]`.")]
+    at: Annotated[
+        quantity(POINT),
+        Field(description=described("Centre of the box, in world coordinates (x forward, y left, z up).", POINT)),
+    ]
+    size: Annotated[
+        quantities(LENGTH, 3, POSITIVE),
+        Field(description="Full length (x), width (y) and height (z), e.g. `[2 HP, 8 HP, 0.3 HP]`."),
+    ]
     euler: Annotated[quantity(ANGLES), Field([0, 0, 0], description=described(EULER_TEXT, ANGLES))]
 
 
 TERRAIN_TYPES: dict[str, type[_Model]] = {"slope": Slope, "hill": Hill, "stairs": Stairs, "box": TerrainBox}
 
-Terrain = Annotated[Union[Slope, Hill, Stairs, TerrainBox], Field(discriminator="type")]
+Terrain = Annotated[Slope | Hill | Stairs | TerrainBox, Field(discriminator="type")]
 
 
 def _check_size(kind: str | None, size: list[Any]) -> list[Any]:
@@ -152,7 +210,12 @@ class Prop(_Model):
     name: Annotated[str, Field(pattern=NAME_PATTERN, description="Unique name (the MuJoCo body's name).")]
     type: Annotated[Literal["sphere", "box", "capsule"], Field(description="Shape.")]
     at: Annotated[quantity(POINT), Field(description=described("Centre at the start, in world coordinates.", POINT))]
-    size: Annotated[quantities(LENGTH, (1, 3), POSITIVE), Field(description="sphere: `[radius]`; box: `[length, width, height]` (full sizes); capsule: `[radius, length of the straight part]` (its axis is z before `euler`).")]
+    size: Annotated[
+        quantities(LENGTH, (1, 3), POSITIVE),
+        Field(
+            description="sphere: `[radius]`; box: `[length, width, height]` (full sizes); capsule: `[radius, length of the straight part]` (its axis is z before `euler`)."
+        ),
+    ]
     mass: Annotated[quantity(MASS, POSITIVE), Field(description=described("Its mass.", MASS))]
     euler: Annotated[quantity(ANGLES), Field([0, 0, 0], description=described(EULER_TEXT, ANGLES))]
     velocity: Annotated[quantity(VELOCITY), Field([0, 0, 0], description=described("Velocity at the start.", VELOCITY))]
@@ -163,15 +226,39 @@ class Prop(_Model):
         return _check_size(info.data.get("type"), size)
 
 
-FromDirection = Union[Literal["left", "right", "front", "back"], Annotated[list[float], Field(min_length=3, max_length=3)]]
+FromDirection = Union[
+    Literal["left", "right", "front", "back"], Annotated[list[float], Field(min_length=3, max_length=3)]
+]
 
 
 class _ThrowBase(_Model):
     shape: Annotated[Literal["box", "sphere", "capsule"], Field(description="Shape of the thrown object.")]
-    size: Annotated[quantities(LENGTH, (1, 3), POSITIVE), Field(description="As a prop's `size`: sphere `[radius]`, box `[length, width, height]`, capsule `[radius, length]`.")]
-    target: Annotated[str, Field("pelvis", description="Body point aimed at: a role (its joint), `role.start|mid|end`, or `leg.top|foot` (e.g. `thorax.mid`, `lf.foot`).")]
-    animal: Annotated[int | str, Field(0, description="The animal aimed at: its index in the scene (0 is the first) or its name.")]
-    distance: Annotated[quantity(LENGTH, POSITIVE) | None, Field(None, description=described(f"How far from the target the object appears. Default: {THROW_DISTANCE_HP:g} HP, or half the farthest the speed can carry if that is shorter.", LENGTH))]
+    size: Annotated[
+        quantities(LENGTH, (1, 3), POSITIVE),
+        Field(
+            description="As a prop's `size`: sphere `[radius]`, box `[length, width, height]`, capsule `[radius, length]`."
+        ),
+    ]
+    target: Annotated[
+        str,
+        Field(
+            "pelvis",
+            description="Body point aimed at: a role (its joint), `role.start|mid|end`, or `leg.top|foot` (e.g. `thorax.mid`, `lf.foot`).",
+        ),
+    ]
+    animal: Annotated[
+        int | str, Field(0, description="The animal aimed at: its index in the scene (0 is the first) or its name.")
+    ]
+    distance: Annotated[
+        quantity(LENGTH, POSITIVE) | None,
+        Field(
+            None,
+            description=described(
+                f"How far from the target the object appears. Default: {THROW_DISTANCE_HP:g} HP, or half the farthest the speed can carry if that is shorter.",
+                LENGTH,
+            ),
+        ),
+    ]
 
     @field_validator("size")
     @classmethod
@@ -188,10 +275,30 @@ def _nonzero(vector: Any) -> Any:
 class Throw(_ThrowBase):
     """One object thrown at an animal: it reaches the target point at `speed`, `at` + the flight time."""
 
-    at: Annotated[quantity(TIME, NON_NEGATIVE), Field(description=described("When it is thrown (it appears, already flying).", TIME))]
-    mass: Annotated[quantity(MASS, POSITIVE), Field(description=described("Its mass; `bm` is the first animal's body mass.", MASS))]
-    speed: Annotated[quantity(SPEED, POSITIVE), Field(description=described("Its speed when it reaches the target (and when thrown, from the same height); `froude_speed(2.5)` scales with the animal.", SPEED))]
-    from_: Annotated[FromDirection, Field("left", alias="from", description="Where it comes from, relative to where the target animal faces when it is thrown: `left`, `right`, `front`, `back`, or a vector `[forward, left, up]` pointing from the target toward the thrower.")]
+    at: Annotated[
+        quantity(TIME, NON_NEGATIVE),
+        Field(description=described("When it is thrown (it appears, already flying).", TIME)),
+    ]
+    mass: Annotated[
+        quantity(MASS, POSITIVE), Field(description=described("Its mass; `bm` is the first animal's body mass.", MASS))
+    ]
+    speed: Annotated[
+        quantity(SPEED, POSITIVE),
+        Field(
+            description=described(
+                "Its speed when it reaches the target (and when thrown, from the same height); `froude_speed(2.5)` scales with the animal.",
+                SPEED,
+            )
+        ),
+    ]
+    from_: Annotated[
+        FromDirection,
+        Field(
+            "left",
+            alias="from",
+            description="Where it comes from, relative to where the target animal faces when it is thrown: `left`, `right`, `front`, `back`, or a vector `[forward, left, up]` pointing from the target toward the thrower.",
+        ),
+    ]
 
     _direction_is_nonzero = field_validator("from_")(_nonzero)
 
@@ -201,11 +308,27 @@ class RandomThrows(_Model):
 
     count: Annotated[int, Field(ge=1, description="Number of throws.")]
     seed: Annotated[int, Field(description="Random seed.")]
-    start: Annotated[quantity(TIME, NON_NEGATIVE), Field("2 s", description=described("Time of the first throw.", TIME))]
+    start: Annotated[
+        quantity(TIME, NON_NEGATIVE), Field("2 s", description=described("Time of the first throw.", TIME))
+    ]
     every: Annotated[quantity(TIME, POSITIVE), Field("2 s", description=described("Time between throws.", TIME))]
-    mass: Annotated[quantities(MASS, 2, POSITIVE), Field(description="Range `[lowest, highest]` the masses are drawn from, uniformly, e.g. `[0.05 bm, 0.15 bm]`.")]
-    speed: Annotated[quantities(SPEED, 2, POSITIVE), Field(description="Range `[lowest, highest]` the speeds are drawn from, uniformly, e.g. `[3 m/s, 5 m/s]`.")]
-    from_: Annotated[list[Literal["left", "right", "front", "back"]], Field(["left", "right", "front", "back"], alias="from", min_length=1, description="Directions drawn from, uniformly.")]
+    mass: Annotated[
+        quantities(MASS, 2, POSITIVE),
+        Field(description="Range `[lowest, highest]` the masses are drawn from, uniformly, e.g. `[0.05 bm, 0.15 bm]`."),
+    ]
+    speed: Annotated[
+        quantities(SPEED, 2, POSITIVE),
+        Field(description="Range `[lowest, highest]` the speeds are drawn from, uniformly, e.g. `[3 m/s, 5 m/s]`."),
+    ]
+    from_: Annotated[
+        list[Literal["left", "right", "front", "back"]],
+        Field(
+            ["left", "right", "front", "back"],
+            alias="from",
+            min_length=1,
+            description="Directions drawn from, uniformly.",
+        ),
+    ]
 
 
 class ThrowSeries(_ThrowBase):
@@ -219,19 +342,41 @@ def _throw_tag(value: Any) -> str:
     return "random" if has_random else "throw"
 
 
-ThrowItem = Annotated[Union[Annotated[Throw, Tag("throw")], Annotated[ThrowSeries, Tag("random")]], Discriminator(_throw_tag)]
+ThrowItem = Annotated[Annotated[Throw, Tag("throw")] | Annotated[ThrowSeries, Tag("random")], Discriminator(_throw_tag)]
 
 
 class _AnimalBase(_Model):
-    species: Annotated[str | None, Field(None, description="Animal name (`configs/animals`) or config path relative to this file; default: the animal given on the command line.")]
-    at: Annotated[quantities(LENGTH, 2), Field([0, 0], description="Start position on the ground `[x, y]`; the animal is lifted to stand on whatever is below it.")]
-    heading: Annotated[quantity(ANGLE), Field("0 deg", description=described("Direction it faces, counter-clockwise from +x (90 deg faces +y, its left at the start).", ANGLE))]
+    species: Annotated[
+        str | None,
+        Field(
+            None,
+            description="Animal name (`configs/animals`) or config path relative to this file; default: the animal given on the command line.",
+        ),
+    ]
+    at: Annotated[
+        quantities(LENGTH, 2),
+        Field(
+            [0, 0],
+            description="Start position on the ground `[x, y]`; the animal is lifted to stand on whatever is below it.",
+        ),
+    ]
+    heading: Annotated[
+        quantity(ANGLE),
+        Field(
+            "0 deg",
+            description=described(
+                "Direction it faces, counter-clockwise from +x (90 deg faces +y, its left at the start).", ANGLE
+            ),
+        ),
+    ]
 
 
 class AnimalEntry(_AnimalBase):
     """One animal."""
 
-    name: Annotated[str, Field(pattern=NAME_PATTERN, description="Unique name: its MuJoCo elements are `<name>/<role>`.")]
+    name: Annotated[
+        str, Field(pattern=NAME_PATTERN, description="Unique name: its MuJoCo elements are `<name>/<role>`.")
+    ]
 
 
 class Grid(_Model):
@@ -239,14 +384,19 @@ class Grid(_Model):
 
     rows: Annotated[int, Field(ge=1, description="Number of rows.")]
     columns: Annotated[int, Field(ge=1, description="Number of animals in a row.")]
-    spacing: Annotated[quantities(LENGTH, 2, POSITIVE), Field(description="`[between rows, between columns]`, e.g. `[3 HP, 1 HP]`.")]
+    spacing: Annotated[
+        quantities(LENGTH, 2, POSITIVE), Field(description="`[between rows, between columns]`, e.g. `[3 HP, 1 HP]`.")
+    ]
 
 
 class AnimalGrid(_AnimalBase):
     """A grid of animals of one species: the first at `at`, then row by row."""
 
     grid: Annotated[Grid, Field(description="The grid's shape.")]
-    name: Annotated[str, Field(pattern=NAME_PATTERN, description="Name prefix: the animals are `<name>1`, `<name>2`, ... row by row.")]
+    name: Annotated[
+        str,
+        Field(pattern=NAME_PATTERN, description="Name prefix: the animals are `<name>1`, `<name>2`, ... row by row."),
+    ]
 
 
 def _animal_tag(value: Any) -> str:
@@ -254,7 +404,9 @@ def _animal_tag(value: Any) -> str:
     return "grid" if has_grid else "animal"
 
 
-AnimalItem = Annotated[Union[Annotated[AnimalEntry, Tag("animal")], Annotated[AnimalGrid, Tag("grid")]], Discriminator(_animal_tag)]
+AnimalItem = Annotated[
+    Annotated[AnimalEntry, Tag("animal")] | Annotated[AnimalGrid, Tag("grid")], Discriminator(_animal_tag)
+]
 
 
 Waypoint = tuple[Value, quantity(POINT)]
@@ -263,11 +415,21 @@ Waypoint = tuple[Value, quantity(POINT)]
 class Goal(_Model):
     """A controller parameter set by the scene: a fixed point, or a path through timed points."""
 
-    point: Annotated[quantity(POINT) | None, Field(None, description=described("A fixed point, in world coordinates.", POINT))]
-    path: Annotated[list[Waypoint] | None, Waypoints(), Field(None, min_length=1, description="`[[time, point], ...]`: the goal moves in straight lines between the points, at times in increasing order, and stays at the first before its time and at the last after.")]
+    point: Annotated[
+        quantity(POINT) | None, Field(None, description=described("A fixed point, in world coordinates.", POINT))
+    ]
+    path: Annotated[
+        list[Waypoint] | None,
+        Waypoints(),
+        Field(
+            None,
+            min_length=1,
+            description="`[[time, point], ...]`: the goal moves in straight lines between the points, at times in increasing order, and stays at the first before its time and at the last after.",
+        ),
+    ]
 
     @model_validator(mode="after")
-    def _one_kind(self) -> "Goal":
+    def _one_kind(self) -> Goal:
         if (self.point is None) == (self.path is None):
             raise ValueError("give either a point or a `path`")
         return self
@@ -277,21 +439,47 @@ def _goal_shorthand(value: Any) -> Any:
     return value if isinstance(value, dict) else {"point": value}
 
 
-GoalField = Annotated[Goal, BeforeValidator(_goal_shorthand, json_schema_input_type=Union[Goal, str, Annotated[list[Union[float, str]], Field(min_length=3, max_length=3)]])]
+GoalField = Annotated[
+    Goal,
+    BeforeValidator(
+        _goal_shorthand,
+        json_schema_input_type=Union[Goal, str, Annotated[list[float | str], Field(min_length=3, max_length=3)]],
+    ),
+]
 
 
 class SceneFile(_Model):
     """Schema of `configs/scenes/<name>.yaml`."""
 
-    schema_: Annotated[int, Field(alias="schema", description=f"Format version; this quadpipe reads `{SCHEMA_VERSION}`.")]
+    schema_: Annotated[
+        int, Field(alias="schema", description=f"Format version; this quadpipe reads `{SCHEMA_VERSION}`.")
+    ]
     name: Annotated[str, Field(description="Name of the scene, as used on the command line.")]
     description: Annotated[str, Field("", description="One line for `quadpipe scenes`.")]
-    ground: Annotated[GroundField, Field(default_factory=Ground, description="The floor (`{friction: 1.0}`), or `none` for no floor.")]
-    terrain: Annotated[list[Terrain], Field([], description="Static terrain: `slope`, `hill`, `stairs` or `box` items.")]
+    ground: Annotated[
+        GroundField, Field(default_factory=Ground, description="The floor (`{friction: 1.0}`), or `none` for no floor.")
+    ]
+    terrain: Annotated[
+        list[Terrain], Field([], description="Static terrain: `slope`, `hill`, `stairs` or `box` items.")
+    ]
     props: Annotated[list[Prop], Field([], description="Loose objects present from the start.")]
-    throws: Annotated[list[ThrowItem], Field([], description="Objects thrown at animals: single throws, or `random:` series.")]
-    goals: Annotated[dict[str, GoalField], Field({}, description="Controller parameters the scene sets, by name (usually `goal` or `target`): a point, or `{path: [[time, point], ...]}`.")]
-    animals: Annotated[list[AnimalItem] | None, Field(None, description="Where the animals start; default: one animal (the command line's) at the origin, facing +x. `HP`, `bw` and `bm` in the whole scene are those of the first.")]
+    throws: Annotated[
+        list[ThrowItem], Field([], description="Objects thrown at animals: single throws, or `random:` series.")
+    ]
+    goals: Annotated[
+        dict[str, GoalField],
+        Field(
+            {},
+            description="Controller parameters the scene sets, by name (usually `goal` or `target`): a point, or `{path: [[time, point], ...]}`.",
+        ),
+    ]
+    animals: Annotated[
+        list[AnimalItem] | None,
+        Field(
+            None,
+            description="Where the animals start; default: one animal (the command line's) at the origin, facing +x. `HP`, `bw` and `bm` in the whole scene are those of the first.",
+        ),
+    ]
 
 
 TAGGED_LISTS: dict[str, tuple[Callable[[dict[str, Any]], str | None], dict[str, type[_Model]], str]] = {
@@ -313,12 +501,16 @@ _MARKERS = (Quantity, Items, Waypoints, Bounds)
 def _markers(info: Any) -> list[Any]:
     """The markers of a field, on the field itself or inside an optional type (`X | None`)."""
     found = [m for m in info.metadata if isinstance(m, _MARKERS)]
-    for arm in typing.get_args(info.annotation) if typing.get_origin(info.annotation) in (Union, types.UnionType) else ():
+    for arm in (
+        typing.get_args(info.annotation) if typing.get_origin(info.annotation) in (Union, types.UnionType) else ()
+    ):
         found += [m for m in getattr(arm, "__metadata__", ()) if isinstance(m, _MARKERS)]
     return found
 
 
-def iter_quantities(model: BaseModel, path: tuple[Any, ...] = ()) -> Iterator[tuple[tuple[Any, ...], Any, Expect, Bounds | None]]:
+def iter_quantities(
+    model: BaseModel, path: tuple[Any, ...] = ()
+) -> Iterator[tuple[tuple[Any, ...], Any, Expect, Bounds | None]]:
     """Every quantity in a validated scene: (path in the file, value as written, expected kind, bounds)."""
     for name, info in type(model).model_fields.items():
         value = getattr(model, name)

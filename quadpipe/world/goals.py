@@ -3,7 +3,7 @@ a point moving along timed waypoints)."""
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -24,7 +24,11 @@ def goal_text(scene: SceneSpec, values: Values, name: str) -> str:
     waypoints = [(values[path + (i, 0)], values[path + (i, 1)]) for i in range(len(goal.path))]
     for i, ((before, _), (after, _)) in enumerate(zip(waypoints, waypoints[1:]), start=1):
         if after <= before:
-            raise QuadpipeError.single("invalid-value", f"{dotted(path + (i, 0))}: the path's times must increase", where=scene.locate(path + (i, 0)))
+            raise QuadpipeError.single(
+                "invalid-value",
+                f"{dotted(path + (i, 0))}: the path's times must increase",
+                where=scene.locate(path + (i, 0)),
+            )
     return goal_expression(waypoints)
 
 
@@ -36,7 +40,9 @@ def goal_expression(waypoints: Sequence[tuple[float, np.ndarray]]) -> str:
     """
     terms = [vector_text(waypoints[0][1])]
     for (t0, p0), (t1, p1) in zip(waypoints, waypoints[1:]):
-        terms.append(f"{vector_text(p1 - p0)} * clamp(({TIME_VARIABLE} - {number_text(t0)} s) / ({number_text(t1 - t0)} s), 0, 1)")
+        terms.append(
+            f"{vector_text(p1 - p0)} * clamp(({TIME_VARIABLE} - {number_text(t0)} s) / ({number_text(t1 - t0)} s), 0, 1)"
+        )
     return " + ".join(terms)
 
 

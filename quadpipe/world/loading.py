@@ -9,9 +9,10 @@ reach) are checked when the scene is built (`quadpipe.world.values`).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import pydantic
 from pydantic import BaseModel
@@ -20,7 +21,16 @@ from quadpipe.core import configs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.yamlio import YamlDocument, dotted, load_yaml, located_issues
 from quadpipe.quantities.expressions import ExprError, Namespace, check_expected, resolve_point_name
-from quadpipe.world.format import RESERVED_PROP_NAMES, SCHEMA_VERSION, TAGGED_LISTS, AnimalEntry, AnimalGrid, SceneFile, is_zero, iter_quantities
+from quadpipe.world.format import (
+    RESERVED_PROP_NAMES,
+    SCHEMA_VERSION,
+    TAGGED_LISTS,
+    AnimalEntry,
+    AnimalGrid,
+    SceneFile,
+    is_zero,
+    iter_quantities,
+)
 
 SCENE_KIND = "scenes"
 """The config folder of scenes (see `quadpipe.core.configs`)."""
@@ -77,7 +87,9 @@ def parse_scene(doc: YamlDocument) -> SceneFile:
         QuadpipeError: every problem found, in file order.
     """
     if not isinstance(doc.data, dict):
-        raise QuadpipeError.single("invalid-value", "a scene file must be a mapping of keys (schema, name, terrain, ...)", where=doc.locate(()))
+        raise QuadpipeError.single(
+            "invalid-value", "a scene file must be a mapping of keys (schema, name, terrain, ...)", where=doc.locate(())
+        )
     issues = _structure_issues(doc)
     if not issues:
         scene = SceneFile.model_validate(doc.data)
@@ -102,17 +114,40 @@ def _structure_issues(doc: YamlDocument) -> list[Issue]:
         for index, item in enumerate(items if isinstance(items, list) else []):
             path = (key, index)
             if not isinstance(item, dict):
-                issues.append(Issue("invalid-value", f"{what} item {index + 1} must be a mapping of keys", doc.locate(path)))
+                issues.append(
+                    Issue("invalid-value", f"{what} item {index + 1} must be a mapping of keys", doc.locate(path))
+                )
                 continue
             tag = tag_of(item)
             if tag is None:
-                issues.append(Issue("missing-key", f"{what} item {index + 1} has no `type`", doc.locate(path), f"valid: {', '.join(models)}"))
+                issues.append(
+                    Issue(
+                        "missing-key",
+                        f"{what} item {index + 1} has no `type`",
+                        doc.locate(path),
+                        f"valid: {', '.join(models)}",
+                    )
+                )
             elif tag not in models:
-                issues.append(Issue(f"unknown-{what}-type", f"there is no {what} type {tag!r}", doc.locate(path + ("type",)), did_you_mean(str(tag), models)))
+                issues.append(
+                    Issue(
+                        f"unknown-{what}-type",
+                        f"there is no {what} type {tag!r}",
+                        doc.locate(path + ("type",)),
+                        did_you_mean(str(tag), models),
+                    )
+                )
             else:
                 issues += _validate_part(models[tag], item, path, doc)
     if not issues and doc.data.get("schema") != SCHEMA_VERSION:
-        issues.append(Issue("unsupported-schema", f"schema version {doc.data.get('schema')!r} is not supported", doc.locate(("schema",)), f"this quadpipe reads `schema: {SCHEMA_VERSION}`"))
+        issues.append(
+            Issue(
+                "unsupported-schema",
+                f"schema version {doc.data.get('schema')!r} is not supported",
+                doc.locate(("schema",)),
+                f"this quadpipe reads `schema: {SCHEMA_VERSION}`",
+            )
+        )
     return issues
 
 
@@ -144,7 +179,14 @@ def _quantity_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
             issues.append(Issue(exc.code, f"{shown(path, doc)}: {exc.message}", doc.locate(path), exc.hint))
             continue
         if expr.needs:
-            issues.append(Issue("not-constant", f"{shown(path, doc)}: a scene value must be fixed, but {value!r} reads the simulation", doc.locate(path), "`t`, body points and sensors only exist in controllers; moving goals use `path`"))
+            issues.append(
+                Issue(
+                    "not-constant",
+                    f"{shown(path, doc)}: a scene value must be fixed, but {value!r} reads the simulation",
+                    doc.locate(path),
+                    "`t`, body points and sensors only exist in controllers; moving goals use `path`",
+                )
+            )
     return issues
 
 
@@ -153,11 +195,25 @@ def _reference_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
     issues = []
     names = animal_names(scene)
     if names == []:
-        issues.append(Issue("invalid-value", "animals: the list is empty", doc.locate(("animals",)), "list at least one animal, or leave `animals` out for the default one"))
+        issues.append(
+            Issue(
+                "invalid-value",
+                "animals: the list is empty",
+                doc.locate(("animals",)),
+                "list at least one animal, or leave `animals` out for the default one",
+            )
+        )
     seen: set[str] = set()
     for path, name in _named_things(scene):
         if name in seen:
-            issues.append(Issue("duplicate-name", f"the name {name!r} is used twice", doc.locate(path), "give every animal and prop its own name"))
+            issues.append(
+                Issue(
+                    "duplicate-name",
+                    f"the name {name!r} is used twice",
+                    doc.locate(path),
+                    "give every animal and prop its own name",
+                )
+            )
         seen.add(name)
     issues += _reserved_issues(scene, doc)
     for index, entry in enumerate(scene.animals or []):
@@ -168,9 +224,20 @@ def _reference_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
         try:
             resolve_point_name(throw.target)
         except ExprError as exc:
-            issues.append(Issue(exc.code, f"{dotted(path + ('target',))}: {exc.message}", doc.locate(path + ("target",)), exc.hint))
+            issues.append(
+                Issue(
+                    exc.code, f"{dotted(path + ('target',))}: {exc.message}", doc.locate(path + ("target",)), exc.hint
+                )
+            )
         if names is not None and not animal_exists(throw.animal, names):
-            issues.append(Issue("unknown-animal-ref", f"there is no animal {throw.animal!r} in this scene", doc.locate(path + ("animal",)), animal_hint(names)))
+            issues.append(
+                Issue(
+                    "unknown-animal-ref",
+                    f"there is no animal {throw.animal!r} in this scene",
+                    doc.locate(path + ("animal",)),
+                    animal_hint(names),
+                )
+            )
     return issues
 
 
@@ -184,7 +251,12 @@ def _named_things(scene: SceneFile) -> Iterator[tuple[tuple[Any, ...], str]]:
 
 def _reserved_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
     return [
-        Issue("reserved-name", f"the name {prop.name!r} is taken by the scene itself", doc.locate(("props", index, "name")), "rename the prop")
+        Issue(
+            "reserved-name",
+            f"the name {prop.name!r} is taken by the scene itself",
+            doc.locate(("props", index, "name")),
+            "rename the prop",
+        )
         for index, prop in enumerate(scene.props)
         if RESERVED_PROP_NAMES.match(prop.name)
     ]
@@ -217,9 +289,30 @@ def animal_hint(names: list[str]) -> str:
 def _species_issues(species: str, path: tuple[Any, ...], doc: YamlDocument) -> list[Issue]:
     if is_path(species):
         file = Path(doc.file).parent / species
-        return [] if file.is_file() else [Issue("file-not-found", f"animal file {species!r} does not exist (relative to this scene)", doc.locate(path))]
+        return (
+            []
+            if file.is_file()
+            else [
+                Issue(
+                    "file-not-found",
+                    f"animal file {species!r} does not exist (relative to this scene)",
+                    doc.locate(path),
+                )
+            ]
+        )
     known = configs.available("animals")
-    return [] if species in known else [Issue("unknown-animal", f"there is no animal named {species!r}", doc.locate(path), did_you_mean(species, known))]
+    return (
+        []
+        if species in known
+        else [
+            Issue(
+                "unknown-animal",
+                f"there is no animal named {species!r}",
+                doc.locate(path),
+                did_you_mean(species, known),
+            )
+        ]
+    )
 
 
 def is_path(text: str) -> bool:

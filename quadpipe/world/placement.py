@@ -9,8 +9,8 @@ scenes (`quadpipe.world.build`) add terrain before the animals, and props after 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import mujoco
 import numpy as np
@@ -125,7 +125,9 @@ def geom_bottoms(animal_spec: mujoco.MjSpec) -> np.ndarray:
     return centres - np.outer(reach, [0.0, 0.0, 1.0])
 
 
-def start_height(placement: Placement, bottoms: np.ndarray, ground_model: mujoco.MjModel, ground_data: mujoco.MjData) -> float:
+def start_height(
+    placement: Placement, bottoms: np.ndarray, ground_model: mujoco.MjModel, ground_data: mujoco.MjData
+) -> float:
     """How high to attach an animal so that its lowest part rests on the ground or terrain below
     (on z = 0 where there is nothing below)."""
     hp = placement.built.animal.pelvis_height
@@ -150,23 +152,44 @@ def ground_height(model: mujoco.MjModel, data: mujoco.MjData, x: float, y: float
 def add_floor(spec: mujoco.MjSpec, scale: float, friction: float = FRICTION[0]) -> None:
     """A checkered `floor` plane sized for animals of pelvis height `scale`."""
     spec.add_texture(
-        name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-        rgb1=[0.32, 0.36, 0.40], rgb2=[0.24, 0.27, 0.30], width=300, height=300,
+        name="grid",
+        type=mujoco.mjtTexture.mjTEXTURE_2D,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+        rgb1=[0.32, 0.36, 0.40],
+        rgb2=[0.24, 0.27, 0.30],
+        width=300,
+        height=300,
     )
-    spec.add_material(name="floor", textures=["", "grid"], texrepeat=[1.0 / scale, 1.0 / scale], texuniform=True, reflectance=0.1)
+    spec.add_material(
+        name="floor", textures=["", "grid"], texrepeat=[1.0 / scale, 1.0 / scale], texuniform=True, reflectance=0.1
+    )
     spec.worldbody.add_geom(
-        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[FLOOR_HALF_SIZE_HP * scale] * 2 + [0.1],
-        material="floor", contype=WORLD_CONTYPE, conaffinity=WORLD_CONAFFINITY, friction=[friction, *FRICTION[1:]],
+        name="floor",
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=[FLOOR_HALF_SIZE_HP * scale] * 2 + [0.1],
+        material="floor",
+        contype=WORLD_CONTYPE,
+        conaffinity=WORLD_CONAFFINITY,
+        friction=[friction, *FRICTION[1:]],
     )
 
 
 def add_sky_and_light(spec: mujoco.MjSpec, scale: float) -> None:
     """A gradient sky and a sun (directional light with shadows) high above."""
     spec.add_texture(
-        name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-        rgb1=[0.55, 0.7, 0.85], rgb2=[0.1, 0.12, 0.15], width=256, height=256,
+        name="sky",
+        type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+        rgb1=[0.55, 0.7, 0.85],
+        rgb2=[0.1, 0.12, 0.15],
+        width=256,
+        height=256,
     )
     spec.worldbody.add_light(
-        name="sun", type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, pos=[0, 0, 10 * scale],
-        dir=[0.3, 0.2, -1.0], diffuse=[0.8, 0.8, 0.8], castshadow=True,
+        name="sun",
+        type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
+        pos=[0, 0, 10 * scale],
+        dir=[0.3, 0.2, -1.0],
+        diffuse=[0.8, 0.8, 0.8],
+        castshadow=True,
     )

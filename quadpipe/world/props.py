@@ -27,12 +27,28 @@ def mujoco_size(shape: str, size: np.ndarray) -> tuple[float, ...]:
 _GEOM_TYPES = {"box": "mjGEOM_BOX", "sphere": "mjGEOM_SPHERE", "capsule": "mjGEOM_CAPSULE"}
 
 
-def add_shape(body: mujoco.MjsBody, name: str, shape: str, size: tuple[float, ...], mass: float, rgba: tuple[float, ...], tau: float, hp: float, colliding: bool) -> None:
+def add_shape(
+    body: mujoco.MjsBody,
+    name: str,
+    shape: str,
+    size: tuple[float, ...],
+    mass: float,
+    rgba: tuple[float, ...],
+    tau: float,
+    hp: float,
+    colliding: bool,
+) -> None:
     """A loose object's geom: it touches the world and the animals, softened for the scene's size."""
     body.add_geom(
-        name=name, type=getattr(mujoco.mjtGeom, _GEOM_TYPES[shape]), size=[*size, *[0.0] * (3 - len(size))],
-        mass=mass, rgba=list(rgba), solref=[tau, 1.0], solimp=sizing.constraint_impedance(hp),
-        contype=WORLD_CONTYPE if colliding else 0, conaffinity=WORLD_CONAFFINITY if colliding else 0,
+        name=name,
+        type=getattr(mujoco.mjtGeom, _GEOM_TYPES[shape]),
+        size=[*size, *[0.0] * (3 - len(size))],
+        mass=mass,
+        rgba=list(rgba),
+        solref=[tau, 1.0],
+        solimp=sizing.constraint_impedance(hp),
+        contype=WORLD_CONTYPE if colliding else 0,
+        conaffinity=WORLD_CONAFFINITY if colliding else 0,
     )
 
 
@@ -41,7 +57,9 @@ def add_props(spec: mujoco.MjSpec, scene: SceneSpec, values: Values, tau: float)
     velocities = {}
     for index, prop in enumerate(scene.file.props):
         base = ("props", index)
-        body = spec.worldbody.add_body(name=prop.name, pos=values[base + ("at",)], quat=euler_quat(values[base + ("euler",)]))
+        body = spec.worldbody.add_body(
+            name=prop.name, pos=values[base + ("at",)], quat=euler_quat(values[base + ("euler",)])
+        )
         body.add_freejoint(name=prop.name)
         size = mujoco_size(prop.type, values.items(base + ("size",), len(prop.size)))
         add_shape(body, prop.name, prop.type, size, values[base + ("mass",)], PROP_RGBA, tau, values.hp, colliding=True)

@@ -19,7 +19,11 @@ SCHEMA_PATH = Path("schemas/scene.schema.json")
 def scene_json_schema() -> dict[str, Any]:
     """The JSON Schema of scene files, for editors (yaml-language-server) and CI."""
     model_schema = SceneFile.model_json_schema(by_alias=True)
-    return {"$schema": JSON_SCHEMA_DIALECT, "title": "quadpipe scene", **{k: v for k, v in model_schema.items() if k != "title"}}
+    return {
+        "$schema": JSON_SCHEMA_DIALECT,
+        "title": "quadpipe scene",
+        **{k: v for k, v in model_schema.items() if k != "title"},
+    }
 
 
 def json_schema_text() -> str:

@@ -37,8 +37,15 @@ def add_terrain(spec: mujoco.MjSpec, scene: SceneSpec, values: Values, friction:
     for index, item in enumerate(scene.file.terrain):
         for slab in terrain_slabs(index, item, values):
             spec.worldbody.add_geom(
-                name=slab.name, type=mujoco.mjtGeom.mjGEOM_BOX, pos=slab.centre, size=slab.half, quat=slab.quat,
-                rgba=list(TERRAIN_RGBA), contype=WORLD_CONTYPE, conaffinity=WORLD_CONAFFINITY, friction=[friction, *FRICTION[1:]],
+                name=slab.name,
+                type=mujoco.mjtGeom.mjGEOM_BOX,
+                pos=slab.centre,
+                size=slab.half,
+                quat=slab.quat,
+                rgba=list(TERRAIN_RGBA),
+                contype=WORLD_CONTYPE,
+                conaffinity=WORLD_CONAFFINITY,
+                friction=[friction, *FRICTION[1:]],
             )
 
 
@@ -47,13 +54,23 @@ def terrain_slabs(index: int, item: Any, values: Values) -> list[Slab]:
     base = ("terrain", index)
     name = f"terrain{index}_{item.type}"
     if isinstance(item, TerrainBox):
-        return [Slab(name, values[base + ("at",)], values.items(base + ("size",), 3) / 2, euler_quat(values[base + ("euler",)]))]
+        return [
+            Slab(
+                name,
+                values[base + ("at",)],
+                values.items(base + ("size",), 3) / 2,
+                euler_quat(values[base + ("euler",)]),
+            )
+        ]
     start, width = values[base + ("start",)], values[base + ("width",)]
     reach_down = RAMP_BASE_HP * values.hp
     if isinstance(item, Slope):
         angle, run, top = values[base + ("angle",)], values[base + ("length",)], values[base + ("top",)]
         rise = run * math.tan(angle)
-        return [_ramp(f"{name}_ramp", start, 0.0, run, angle, True, width, reach_down), *_block(f"{name}_top", start + run, top, rise, width)]
+        return [
+            _ramp(f"{name}_ramp", start, 0.0, run, angle, True, width, reach_down),
+            *_block(f"{name}_top", start + run, top, rise, width),
+        ]
     if isinstance(item, Hill):
         angle, height, top = values[base + ("angle",)], values[base + ("height",)], values[base + ("top",)]
         run = height / math.tan(angle)
@@ -69,9 +86,17 @@ def _stairs(name: str, item: Stairs, start: float, width: float, values: Values,
     rise, depth, landing = values[base + ("step_height",)], values[base + ("step_depth",)], values[base + ("landing",)]
     count = item.steps
     if item.direction == "up":
-        steps = [slab for k in range(1, count + 1) for slab in _block(f"{name}_step{k}", start + (k - 1) * depth, depth, k * rise, width)]
+        steps = [
+            slab
+            for k in range(1, count + 1)
+            for slab in _block(f"{name}_step{k}", start + (k - 1) * depth, depth, k * rise, width)
+        ]
         return steps + _block(f"{name}_landing", start + count * depth, landing, count * rise, width)
-    steps = [slab for k in range(1, count) for slab in _block(f"{name}_step{k}", start + (k - 1) * depth, depth, (count - k) * rise, width)]
+    steps = [
+        slab
+        for k in range(1, count)
+        for slab in _block(f"{name}_step{k}", start + (k - 1) * depth, depth, (count - k) * rise, width)
+    ]
     return _block(f"{name}_landing", start - landing, landing, count * rise, width) + steps
 
 
@@ -83,7 +108,9 @@ def _block(name: str, x0: float, length: float, height: float, width: float) -> 
     return [Slab(name, centre, np.array([length / 2, width / 2, height / 2]), np.array([1.0, 0.0, 0.0, 0.0]))]
 
 
-def _ramp(name: str, x0: float, z0: float, run: float, angle: float, rising: bool, width: float, reach_down: float) -> Slab:
+def _ramp(
+    name: str, x0: float, z0: float, run: float, angle: float, rising: bool, width: float, reach_down: float
+) -> Slab:
     """A tilted slab whose top face runs from (x0, z0) over `run` along x, up or down at `angle`.
 
     It is thick enough to reach below the ground under its high end, so no gap shows.

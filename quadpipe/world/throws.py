@@ -95,24 +95,45 @@ def plan_throws(scene: SceneSpec, values: Values, names: list[str], gravity: flo
         animal = _target_animal(scene, item.animal, names, base + ("animal",))
         size = mujoco_size(item.shape, values.items(base + ("size",), len(item.size)))
         if isinstance(item, Throw):
-            shots = [(values[base + ("at",)], values[base + ("mass",)], values[base + ("speed",)], from_vector(item.from_))]
+            shots = [
+                (values[base + ("at",)], values[base + ("mass",)], values[base + ("speed",)], from_vector(item.from_))
+            ]
             speed_path = base + ("speed",)
         else:
             shots = random_shots(item.random, values, base + ("random",))
             speed_path = base + ("random", "speed")
         for time, mass, speed, direction in shots:
-            distance, flight = _aim(speed, direction, values.get(base + ("distance",)), gravity, values.hp, scene, speed_path)
+            distance, flight = _aim(
+                speed, direction, values.get(base + ("distance",)), gravity, values.hp, scene, speed_path
+            )
             launch = -distance * direction / flight + np.array([0.0, 0.0, gravity * flight / 2])
-            plans.append(ThrowPlan(
-                f"{THROWN_PREFIX}{len(plans)}", float(time), animal, resolve_point_name(item.target), item.shape, size,
-                float(mass), float(speed), direction, distance, flight, launch,
-            ))
+            plans.append(
+                ThrowPlan(
+                    f"{THROWN_PREFIX}{len(plans)}",
+                    float(time),
+                    animal,
+                    resolve_point_name(item.target),
+                    item.shape,
+                    size,
+                    float(mass),
+                    float(speed),
+                    direction,
+                    distance,
+                    flight,
+                    launch,
+                )
+            )
     return plans
 
 
 def _target_animal(scene: SceneSpec, ref: int | str, names: list[str], path: tuple[Any, ...]) -> str:
     if not animal_exists(ref, names):
-        raise QuadpipeError.single("unknown-animal-ref", f"there is no animal {ref!r} in this scene", where=scene.locate(path), hint=animal_hint(names))
+        raise QuadpipeError.single(
+            "unknown-animal-ref",
+            f"there is no animal {ref!r} in this scene",
+            where=scene.locate(path),
+            hint=animal_hint(names),
+        )
     return names[ref] if isinstance(ref, int) else ref
 
 
@@ -122,7 +143,9 @@ def from_vector(direction: str | list[float]) -> np.ndarray:
     return vector / np.linalg.norm(vector)
 
 
-def random_shots(series: RandomThrows, values: Values, base: tuple[Any, ...]) -> list[tuple[float, float, float, np.ndarray]]:
+def random_shots(
+    series: RandomThrows, values: Values, base: tuple[Any, ...]
+) -> list[tuple[float, float, float, np.ndarray]]:
     """The (time, mass, speed, direction) of each throw of a random series, drawn from its seed."""
     rng = np.random.default_rng(series.seed)
     start, every = values[base + ("start",)], values[base + ("every",)]
@@ -141,11 +164,23 @@ def random_shots(series: RandomThrows, values: Values, base: tuple[Any, ...]) ->
 def _range(values: Values, path: tuple[Any, ...]) -> tuple[float, float]:
     low, high = values.items(path, 2)
     if low > high:
-        raise QuadpipeError.single("invalid-range", f"{dotted(path)}: the lowest value comes first: [lowest, highest]", where=values.scene.locate(path))
+        raise QuadpipeError.single(
+            "invalid-range",
+            f"{dotted(path)}: the lowest value comes first: [lowest, highest]",
+            where=values.scene.locate(path),
+        )
     return float(low), float(high)
 
 
-def _aim(speed: float, direction: np.ndarray, distance: float | None, gravity: float, hp: float, scene: SceneSpec, path: tuple[Any, ...]) -> tuple[float, float]:
+def _aim(
+    speed: float,
+    direction: np.ndarray,
+    distance: float | None,
+    gravity: float,
+    hp: float,
+    scene: SceneSpec,
+    path: tuple[Any, ...],
+) -> tuple[float, float]:
     """The throw's distance and flight time; it starts as fast as it arrives when level.
 
     Raises:

@@ -37,7 +37,9 @@ class Values:
             self._values[path] = resolved
             problem = _out_of_bounds(resolved, bounds)
             if problem:
-                issues.append(Issue("out-of-range", f"{shown(path, scene.doc)}: {value!r} {problem}", scene.locate(path)))
+                issues.append(
+                    Issue("out-of-range", f"{shown(path, scene.doc)}: {value!r} {problem}", scene.locate(path))
+                )
         if issues:
             raise QuadpipeError(sorted(issues, key=file_order))
 

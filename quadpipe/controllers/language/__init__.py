@@ -15,13 +15,13 @@ Entry points:
 """
 
 from quadpipe.controllers.language.compiler import CompiledController, CompiledElement, compile_controller
-from quadpipe.quantities.expressions import Compiled, ExprError, compile_quantity
-from quadpipe.controllers.language.reference import controller_json_schema, reference_markdown, render_docs
 from quadpipe.controllers.language.load import load_controller
+from quadpipe.controllers.language.reference import controller_json_schema, reference_markdown, render_docs
 from quadpipe.controllers.language.semantics import analyze_controller
 from quadpipe.controllers.language.spec import ControllerSpec
-from quadpipe.quantities.units import Scale, scale_for_animals
 from quadpipe.controllers.language.validate import validate_files
+from quadpipe.quantities.expressions import Compiled, ExprError, compile_quantity
+from quadpipe.quantities.units import Scale, scale_for_animals
 
 __all__ = [
     "Compiled",

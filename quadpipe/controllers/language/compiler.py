@@ -17,17 +17,18 @@ Conventions settled here so the runtime need not:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
-from quadpipe.quantities import expressions
 from quadpipe.controllers.language import schema
-from quadpipe.quantities.units import FORCE, LENGTH, Scale
 from quadpipe.controllers.language.marked import iter_marked
 from quadpipe.controllers.language.parameters import cycle_names, element_namespace, sensor_types, type_parameters
 from quadpipe.controllers.language.spec import ControllerSpec
+from quadpipe.quantities import expressions
+from quadpipe.quantities.units import FORCE, LENGTH, Scale
 
 Path = tuple[str, ...]
 
@@ -129,7 +130,9 @@ def compile_element(element: Any, namespace: expressions.Namespace, scale: Scale
             values[path] = expressions.compile_expr(expressions.check_expected(value, marker.expect, local), scale)
         elif isinstance(marker, schema.PointMap):
             for point, item in value.items():
-                values[path + (point,)] = expressions.compile_expr(expressions.check_expected(item, marker.expect, local), scale)
+                values[path + (point,)] = expressions.compile_expr(
+                    expressions.check_expected(item, marker.expect, local), scale
+                )
     if isinstance(element, schema.Segment) and element.strength is not None:
         values[("strength",)] = _segment_strength(element, values, local, scale)
         values.pop(("strength", "force"), None)
@@ -139,13 +142,21 @@ def compile_element(element: Any, namespace: expressions.Namespace, scale: Scale
     return CompiledElement(element.name, element.type, getattr(element, "enabled", True), element, values)
 
 
-def _segment_strength(element: schema.Segment, values: Mapping[Path, expressions.Compiled], namespace: expressions.Namespace, scale: Scale) -> expressions.Compiled:
+def _segment_strength(
+    element: schema.Segment, values: Mapping[Path, expressions.Compiled], namespace: expressions.Namespace, scale: Scale
+) -> expressions.Compiled:
     if element.strength.force is not None:
         return values[("strength", "force")]
     factor = expressions.check_expected(element.strength.length2, schema.LENGTH2_FACTOR, namespace)
     rest = namespace.locals["rest"]
-    force = expressions.Expr("mul", expressions.Type(expressions.SCALAR, FORCE), (factor, expressions.Expr("mul", expressions.Type(expressions.SCALAR, LENGTH**2), (rest, rest))))
-    return expressions.compile_expr(expressions.Expr(force.op, force.type, force.args, text=f"({element.strength.length2}) x rest²"), scale)
+    force = expressions.Expr(
+        "mul",
+        expressions.Type(expressions.SCALAR, FORCE),
+        (factor, expressions.Expr("mul", expressions.Type(expressions.SCALAR, LENGTH**2), (rest, rest))),
+    )
+    return expressions.compile_expr(
+        expressions.Expr(force.op, force.type, force.args, text=f"({element.strength.length2}) x rest²"), scale
+    )
 
 
 def _normalise_weights(values: dict[Path, expressions.Compiled], points: tuple[str, ...]) -> None:
@@ -171,13 +182,17 @@ def compile_controller(spec: ControllerSpec, scale: Scale) -> CompiledController
         states = {}
         for state in machine.states.values():
             state_namespace = namespace_for(spec, state.parameters) if state.parameters else namespace
-            compiled = {target: compile_element(variant, state_namespace, scale) for target, variant in state.elements.items()}
+            compiled = {
+                target: compile_element(variant, state_namespace, scale) for target, variant in state.elements.items()
+            }
             states[state.name] = CompiledState(state.name, compiled)
         transitions = tuple(
             CompiledTransition(
                 t.sources,
                 t.target,
-                expressions.compile_expr(expressions.check_expected(t.when, schema.CONDITION, local), scale) if t.when is not None else None,
+                expressions.compile_expr(expressions.check_expected(t.when, schema.CONDITION, local), scale)
+                if t.when is not None
+                else None,
                 expressions.compile_expr(expressions.check_expected(t.after, schema.TIME, local), scale),
             )
             for t in machine.transitions
@@ -188,7 +203,9 @@ def compile_controller(spec: ControllerSpec, scale: Scale) -> CompiledController
 
 def _all_needs(elements: Mapping[str, CompiledElement], machines: Mapping[str, CompiledMachine]) -> frozenset[str]:
     needs: set[str] = set()
-    forms = list(elements.values()) + [e for m in machines.values() for s in m.states.values() for e in s.elements.values()]
+    forms = list(elements.values()) + [
+        e for m in machines.values() for s in m.states.values() for e in s.elements.values()
+    ]
     for form in forms:
         for value in form.values.values():
             needs |= value.needs

@@ -7,8 +7,9 @@ of `semantics.py` build on it.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -44,7 +45,13 @@ class _Checked:
 class ElementChecks:
     """The state of checking one merged controller, and the checks of its elements."""
 
-    def __init__(self, merged: MergedController, issues: list[Issue], overrides: Mapping[str, Any], override_where: Callable[[str], Location]) -> None:
+    def __init__(
+        self,
+        merged: MergedController,
+        issues: list[Issue],
+        overrides: Mapping[str, Any],
+        override_where: Callable[[str], Location],
+    ) -> None:
         self.merged = merged
         self.issues = issues
         self.entries = merged.elements
@@ -66,7 +73,9 @@ class ElementChecks:
 
     # -- elements
 
-    def check_element(self, entry: ElementEntry, model: Any, origin: Origin, namespace: expressions.Namespace, failed: set[str]) -> _Checked:
+    def check_element(
+        self, entry: ElementEntry, model: Any, origin: Origin, namespace: expressions.Namespace, failed: set[str]
+    ) -> _Checked:
         checked = _Checked()
         local = element_namespace(model, namespace)
         for path, value, marker in iter_marked(model):
@@ -76,7 +85,16 @@ class ElementChecks:
             rule(model, origin, local, entry.label)
         return checked
 
-    def _check_marked(self, path: tuple, value: Any, marker: Any, origin: Origin, namespace: expressions.Namespace, failed: set[str], checked: _Checked) -> None:
+    def _check_marked(
+        self,
+        path: tuple,
+        value: Any,
+        marker: Any,
+        origin: Origin,
+        namespace: expressions.Namespace,
+        failed: set[str],
+        checked: _Checked,
+    ) -> None:
         if isinstance(marker, schema.Quantity):
             checked.names |= expressions.referenced_names(value)
             self._quantity(value, marker.expect, origin.locate(path), namespace, failed)
@@ -91,12 +109,29 @@ class ElementChecks:
         elif isinstance(marker, schema.LegSet):
             legs, unknown = resolve_legs(value, self.merged.groups)
             for bad in unknown:
-                self.error("unknown-leg", f"{bad!r} is neither a leg nor a group", origin.locate(path), did_you_mean(bad, [*LEGS, *self.merged.groups]))
+                self.error(
+                    "unknown-leg",
+                    f"{bad!r} is neither a leg nor a group",
+                    origin.locate(path),
+                    did_you_mean(bad, [*LEGS, *self.merged.groups]),
+                )
             checked.replacements[path] = legs
         elif isinstance(marker, schema.FrameName) and value not in schema.FRAMES and value not in PARENT:
-            self.error("unknown-frame", f"there is no frame {value!r}", origin.locate(path), did_you_mean(value, [*schema.FRAMES, *ROLES], listing=False) or "use heading, world or a role")
+            self.error(
+                "unknown-frame",
+                f"there is no frame {value!r}",
+                origin.locate(path),
+                did_you_mean(value, [*schema.FRAMES, *ROLES], listing=False) or "use heading, world or a role",
+            )
 
-    def _quantity(self, value: Any, expect: expressions.Expect, where: Location, namespace: expressions.Namespace, failed: set[str]) -> None:
+    def _quantity(
+        self,
+        value: Any,
+        expect: expressions.Expect,
+        where: Location,
+        namespace: expressions.Namespace,
+        failed: set[str],
+    ) -> None:
         if expressions.referenced_names(value) & failed:
             return
         try:
@@ -111,14 +146,28 @@ class ElementChecks:
             self.error(exc.code, exc.message, where, exc.hint)
             return None
 
-    def _point_map(self, path: tuple, mapping: dict, expect: expressions.Expect, origin: Origin, namespace: expressions.Namespace, failed: set[str], checked: _Checked) -> dict:
+    def _point_map(
+        self,
+        path: tuple,
+        mapping: dict,
+        expect: expressions.Expect,
+        origin: Origin,
+        namespace: expressions.Namespace,
+        failed: set[str],
+        checked: _Checked,
+    ) -> dict:
         canonical = {}
         for key, value in mapping.items():
             point = self._point(key, origin.locate(path + (key,), key=True))
             checked.names |= expressions.referenced_names(value)
             self._quantity(value, expect, origin.locate(path + (key,)), namespace, failed)
             if point in canonical:
-                self.error("duplicate-point", f"{key!r} is the same point as another key here ({point})", origin.locate(path + (key,), key=True), "merge their values")
+                self.error(
+                    "duplicate-point",
+                    f"{key!r} is the same point as another key here ({point})",
+                    origin.locate(path + (key,), key=True),
+                    "merge their values",
+                )
             canonical[point or key] = value
         if not mapping:
             self.error("invalid-value", f"`{path[-1]}` needs at least one body point", origin.locate(path))
@@ -129,27 +178,52 @@ class ElementChecks:
         for index, pattern in enumerate(patterns):
             where = origin.locate(path + (index,))
             if pattern == "pelvis":
-                self.error("no-joint", "the pelvis is the root of the skeleton: it has no joint to put a spring on", where, "springs on the spine start at spine0")
+                self.error(
+                    "no-joint",
+                    "the pelvis is the root of the skeleton: it has no joint to put a spring on",
+                    where,
+                    "springs on the spine start at spine0",
+                )
                 continue
             matched = [role for role in match_roles(pattern) if PARENT[role] is not None]
             if not matched and not any(ch in pattern for ch in "*?["):
-                self.error("unknown-role", f"{pattern!r} is not a role", where, did_you_mean(pattern, ROLES, listing=False) or "see the roles in docs/controllers.md")
+                self.error(
+                    "unknown-role",
+                    f"{pattern!r} is not a role",
+                    where,
+                    did_you_mean(pattern, ROLES, listing=False) or "see the roles in docs/controllers.md",
+                )
             elif not matched:
-                self.error("glob-matches-nothing", f"{pattern!r} matches no joint", where, "globs match roles: spine*, *_hip, lf_*, *_* (all leg joints)")
+                self.error(
+                    "glob-matches-nothing",
+                    f"{pattern!r} matches no joint",
+                    where,
+                    "globs match roles: spine*, *_hip, lf_*, *_* (all leg joints)",
+                )
             roles.extend(role for role in matched if role not in roles)
         return roles
 
     # -- per-type rules
 
-    def _direction(self, direction: schema.Direction | None, path: tuple, origin: Origin, namespace: expressions.Namespace) -> None:
+    def _direction(
+        self, direction: schema.Direction | None, path: tuple, origin: Origin, namespace: expressions.Namespace
+    ) -> None:
         if direction is None:
             return
         given = [key for key in ("vector", "toward", "balance") if getattr(direction, key) is not None]
         if len(given) != 1:
             got = " and ".join(given) if given else "none"
-            self.error("direction-kind", f"a direction needs exactly one of vector, toward or balance; got {got}", origin.locate(path))
+            self.error(
+                "direction-kind",
+                f"a direction needs exactly one of vector, toward or balance; got {got}",
+                origin.locate(path),
+            )
         if "horizon" in direction.model_fields_set and direction.balance is None:
-            self.error("unused-key", "`horizon` only applies to a `balance` direction", origin.locate(path + ("horizon",), key=True))
+            self.error(
+                "unused-key",
+                "`horizon` only applies to a `balance` direction",
+                origin.locate(path + ("horizon",), key=True),
+            )
         if direction.vector is not None:
             self._nonzero(direction.vector, origin.locate(path + ("vector",)), namespace)
 
@@ -165,26 +239,56 @@ class ElementChecks:
     def _nonzero(self, value: Any, where: Location, namespace: expressions.Namespace) -> None:
         vector = self._constant_vector(value, namespace)
         if vector is not None and not np.linalg.norm(vector) > 0:
-            self.error("zero-vector", f"the vector {value!r} has no direction", where, "give at least one non-zero component")
+            self.error(
+                "zero-vector", f"the vector {value!r} has no direction", where, "give at least one non-zero component"
+            )
 
-    def _rules_segment(self, model: schema.Segment, origin: Origin, namespace: expressions.Namespace, label: str) -> None:
+    def _rules_segment(
+        self, model: schema.Segment, origin: Origin, namespace: expressions.Namespace, label: str
+    ) -> None:
         self._direction(model.direction, ("direction",), origin, namespace)
         if model.direction is not None and model.strength is None:
-            self.error("missing-key", f"{label} has a direction but no `strength`", origin.locate(("direction",), key=True), "add e.g. `strength: {length2: 0.5 bw/HP^2}`")
+            self.error(
+                "missing-key",
+                f"{label} has a direction but no `strength`",
+                origin.locate(("direction",), key=True),
+                "add e.g. `strength: {length2: 0.5 bw/HP^2}`",
+            )
         if model.strength is not None and model.direction is None:
-            self.error("missing-key", f"{label} has a strength but no `direction` to push along", origin.locate(("strength",), key=True), "add e.g. `direction: [0, 0, -1]`")
+            self.error(
+                "missing-key",
+                f"{label} has a strength but no `direction` to push along",
+                origin.locate(("strength",), key=True),
+                "add e.g. `direction: [0, 0, -1]`",
+            )
         if model.direction is None and model.elastic is None:
-            self.error("nothing-to-do", f"{label} has neither a direction nor an elastic", origin.locate(("name",)), "give it `direction` + `strength`, or `elastic`")
+            self.error(
+                "nothing-to-do",
+                f"{label} has neither a direction nor an elastic",
+                origin.locate(("name",)),
+                "give it `direction` + `strength`, or `elastic`",
+            )
         if model.strength is not None and (model.strength.force is None) == (model.strength.length2 is None):
-            self.error("strength-kind", "a strength is either a force or `length2: factor`, not both", origin.locate(("strength",)))
+            self.error(
+                "strength-kind",
+                "a strength is either a force or `length2: factor`, not both",
+                origin.locate(("strength",)),
+            )
         try:
             same = expressions.resolve_point_name(model.from_) == expressions.resolve_point_name(model.to)
         except expressions.ExprError:
             same = False
         if same:
-            self.error("same-point", f"{label} starts and ends at the same point", origin.locate(("to",)), "a segment joins two different points")
+            self.error(
+                "same-point",
+                f"{label} starts and ends at the same point",
+                origin.locate(("to",)),
+                "a segment joins two different points",
+            )
 
-    def _rules_force_pair(self, model: schema.ForcePair, origin: Origin, namespace: expressions.Namespace, label: str) -> None:
+    def _rules_force_pair(
+        self, model: schema.ForcePair, origin: Origin, namespace: expressions.Namespace, label: str
+    ) -> None:
         self._direction(model.direction, ("direction",), origin, namespace)
         weights = []
         for key, value in model.reaction.items():
@@ -193,23 +297,37 @@ class ElementChecks:
             except expressions.ExprError:
                 return
             if not expr.is_constant or expr.uses_scale or expr.type != expressions.NUMBER:
-                self.error("bad-weights", f"reaction weight {value!r} must be a plain number", origin.locate(("reaction", key)))
+                self.error(
+                    "bad-weights", f"reaction weight {value!r} must be a plain number", origin.locate(("reaction", key))
+                )
                 return
             weights.append(float(expressions.evaluate_constant(expr)))
         if any(weight < 0 for weight in weights) or (weights and sum(weights) <= 0):
-            self.error("bad-weights", "reaction weights must be positive (they are shares of the opposite force)", origin.locate(("reaction",)))
+            self.error(
+                "bad-weights",
+                "reaction weights must be positive (they are shares of the opposite force)",
+                origin.locate(("reaction",)),
+            )
 
     def _rules_pull(self, model: schema.Pull, origin: Origin, namespace: expressions.Namespace, label: str) -> None:
         self._direction(model.direction, ("direction",), origin, namespace)
 
     def _rules_cycle(self, model: schema.Cycle, origin: Origin, namespace: expressions.Namespace, label: str) -> None:
         self._nonzero(model.axis, origin.locate(("axis",)), namespace)
-        axis, reference = self._constant_vector(model.axis, namespace), self._constant_vector(model.reference, namespace)
+        axis, reference = (
+            self._constant_vector(model.axis, namespace),
+            self._constant_vector(model.reference, namespace),
+        )
         if axis is None or reference is None or not np.linalg.norm(axis) > 0 or not np.linalg.norm(reference) > 0:
             return
         sine = np.linalg.norm(np.cross(axis, reference)) / (np.linalg.norm(axis) * np.linalg.norm(reference))
         if sine < PARALLEL_SINE:
-            self.error("parallel-axis", f"{label}: `reference` is parallel to `axis`, so the force cannot turn about it", origin.locate(("reference",)), "give a reference across the axis, e.g. [1, 0, 0] for axis [0, 1, 0]")
+            self.error(
+                "parallel-axis",
+                f"{label}: `reference` is parallel to `axis`, so the force cannot turn about it",
+                origin.locate(("reference",)),
+                "give a reference across the axis, e.g. [1, 0, 0] for axis [0, 1, 0]",
+            )
 
     def _rules_sensor(self, model: schema.Sensor, origin: Origin, namespace: expressions.Namespace, label: str) -> None:
         needed, refused = SENSOR_KEYS[model.kind]
@@ -218,7 +336,9 @@ class ElementChecks:
                 self.error("missing-key", f"a {model.kind} sensor needs `{key}`", origin.locate(("kind",)))
         for key in sorted(refused):
             if getattr(model, key) is not None:
-                self.error("unused-key", f"a {model.kind} sensor does not take `{key}`", origin.locate((key,), key=True))
+                self.error(
+                    "unused-key", f"a {model.kind} sensor does not take `{key}`", origin.locate((key,), key=True)
+                )
 
 
 def canonical(model: Any, replacements: Mapping[tuple[Any, ...], Any]) -> Any:

@@ -7,8 +7,9 @@ then each `override:` and state patch laid over it), so that any later check can
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Mapping
+from typing import Any
 
 from quadpipe.core.errors import Location
 from quadpipe.core.yamlio import YamlDocument
@@ -34,9 +35,13 @@ class Layer:
         """Whether the mapping contains `path`."""
         node = self.raw
         for part in path:
-            if isinstance(node, dict) and part in node:
-                node = node[part]
-            elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+            if (
+                isinstance(node, dict)
+                and part in node
+                or isinstance(node, list)
+                and isinstance(part, int)
+                and 0 <= part < len(node)
+            ):
                 node = node[part]
             else:
                 return False
@@ -57,7 +62,7 @@ class Origin:
     def locate(self, path: Iterable[Any] = (), key: bool = False) -> Location:
         """Position of a key path of the element, in the latest layer that sets it."""
         path = tuple(path)
-        layers = self.layers[self._last_replacing(path):]
+        layers = self.layers[self._last_replacing(path) :]
         for size in range(len(path), -1, -1):
             for layer in reversed(layers):
                 if layer.holds(path[:size]):
@@ -88,7 +93,7 @@ class Origin:
                 return Layer(layer.doc, layer.base + written, raw, layer.key_map)
         return Layer(self.layers[-1].doc, self.layers[-1].base + path, raw)
 
-    def patched(self, layer: Layer) -> "Origin":
+    def patched(self, layer: Layer) -> Origin:
         """This origin with one more patch on top."""
         return Origin((*self.layers, layer))
 

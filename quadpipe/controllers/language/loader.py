@@ -16,17 +16,24 @@ Problems are collected as `Issue`s rather than raised, so that one run reports t
 from __future__ import annotations
 
 import re
+from collections.abc import Callable, Iterable, Mapping
 from fnmatch import fnmatchcase
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any
 
 import pydantic
 
-from quadpipe.core import configs
 from quadpipe.anatomy import roles
 from quadpipe.controllers.language.entries import ElementEntry, Layer, MergedController, ParameterEntry
 from quadpipe.controllers.language.schema import MODEL_OF_TYPE, SCHEMA_VERSION, ControllerFile
-from quadpipe.controllers.language.templates import BUILTIN_GROUPS, expand_element, parameter_copies, placeholder_issues, resolve_legs
+from quadpipe.controllers.language.templates import (
+    BUILTIN_GROUPS,
+    expand_element,
+    parameter_copies,
+    placeholder_issues,
+    resolve_legs,
+)
+from quadpipe.core import configs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.yamlio import YamlDocument, field_names_at, load_yaml
 from quadpipe.core.yamlio import unwrap_annotation as unwrap_annotation  # re-exported
@@ -61,16 +68,27 @@ def pydantic_issues(
         elif err["type"] == "extra_forbidden":
             name = str(loc[-1])
             valid = field_names_at(model, loc[:-1])
-            issues.append(Issue("unknown-key", f"{name!r} is not a valid key in {where}", locate(loc, True), did_you_mean(name, valid) if valid else None))
+            issues.append(
+                Issue(
+                    "unknown-key",
+                    f"{name!r} is not a valid key in {where}",
+                    locate(loc, True),
+                    did_you_mean(name, valid) if valid else None,
+                )
+            )
         elif err["type"] == "missing":
-            issues.append(Issue("missing-key", f"required key {loc[-1]!r} is missing in {where}", locate(loc[:-1], False)))
+            issues.append(
+                Issue("missing-key", f"required key {loc[-1]!r} is missing in {where}", locate(loc[:-1], False))
+            )
         else:
             message = err["msg"].removeprefix("Value error, ")
             issues.append(Issue("invalid-value", f"{_where_in(label, loc)}: {message}", locate(loc, False)))
     return issues
 
 
-def _yaml_boolean_issue(err: dict[str, Any], loc: tuple[Any, ...], label: str, locate: Callable[[tuple[Any, ...], bool], Location]) -> Issue:
+def _yaml_boolean_issue(
+    err: dict[str, Any], loc: tuple[Any, ...], label: str, locate: Callable[[tuple[Any, ...], bool], Location]
+) -> Issue:
     """YAML 1.1 reads yes/no/on/off/true/false as booleans; say so where a name was meant."""
     if loc and loc[-1] == "[key]":
         where, at = _where_in(label, loc[:-2]), locate(loc[:-1], True)
@@ -79,7 +97,12 @@ def _yaml_boolean_issue(err: dict[str, Any], loc: tuple[Any, ...], label: str, l
         where, at = _where_in(label, loc), locate(loc, False)
         subject = "this value"
     word = str(err["input"]).lower()
-    return Issue("invalid-value", f"{where}: YAML read {subject} as {word}, not as a name", at, 'quote words like on, off, yes, no, true, false: "on"')
+    return Issue(
+        "invalid-value",
+        f"{where}: YAML read {subject} as {word}, not as a name",
+        at,
+        'quote words like on, off, yes, no, true, false: "on"',
+    )
 
 
 def _where_in(label: str, loc: tuple[Any, ...]) -> str:
@@ -108,7 +131,12 @@ def _with_placeholder_hint(issue: Issue, path: Path) -> Issue:
     lines = path.read_text(encoding="utf-8").splitlines()
     nearby = lines[max(issue.where.line - 2, 0) : issue.where.line]
     if any(_UNQUOTED_PLACEHOLDER.search(line) for line in nearby):
-        return Issue(issue.code, issue.message, issue.where, 'a value starting with {leg} must be quoted: "{leg}_hip", or YAML reads it as a mapping')
+        return Issue(
+            issue.code,
+            issue.message,
+            issue.where,
+            'a value starting with {leg} must be quoted: "{leg}_hip", or YAML reads it as a mapping',
+        )
     return issue
 
 
@@ -118,7 +146,13 @@ def _read(path: Path, issues: list[Issue]) -> tuple[YamlDocument, ControllerFile
     if doc is None:
         return None
     if not isinstance(doc.data, dict):
-        issues.append(Issue("invalid-value", "a controller file must be a mapping of keys (schema, name, elements, ...)", doc.locate(())))
+        issues.append(
+            Issue(
+                "invalid-value",
+                "a controller file must be a mapping of keys (schema, name, elements, ...)",
+                doc.locate(()),
+            )
+        )
         return None
     top = {key: value for key, value in doc.data.items() if key != "elements"}
     try:
@@ -127,7 +161,14 @@ def _read(path: Path, issues: list[Issue]) -> tuple[YamlDocument, ControllerFile
         issues.extend(pydantic_issues(exc, ControllerFile, lambda loc, key: doc.locate(loc, key=key), "the controller"))
         return None
     if model.schema_ != SCHEMA_VERSION:
-        issues.append(Issue("unsupported-schema", f"schema version {model.schema_} is not supported", doc.locate(("schema",)), f"this quadpipe reads `schema: {SCHEMA_VERSION}`"))
+        issues.append(
+            Issue(
+                "unsupported-schema",
+                f"schema version {model.schema_} is not supported",
+                doc.locate(("schema",)),
+                f"this quadpipe reads `schema: {SCHEMA_VERSION}`",
+            )
+        )
         return None
     return doc, model
 
@@ -138,23 +179,53 @@ def _raw_elements(doc: YamlDocument, issues: list[Issue]) -> list[tuple[tuple[An
     if elements is None:
         return []
     if not isinstance(elements, list):
-        issues.append(Issue("invalid-value", "`elements` must be a list (each item starting with '- type: ...')", doc.locate(("elements",))))
+        issues.append(
+            Issue(
+                "invalid-value",
+                "`elements` must be a list (each item starting with '- type: ...')",
+                doc.locate(("elements",)),
+            )
+        )
         return []
     found = []
     for index, raw in enumerate(elements):
         path = ("elements", index)
         if not isinstance(raw, dict):
-            issues.append(Issue("invalid-value", f"element {index + 1} must be a mapping with `type` and `name`", doc.locate(path)))
+            issues.append(
+                Issue(
+                    "invalid-value", f"element {index + 1} must be a mapping with `type` and `name`", doc.locate(path)
+                )
+            )
             continue
         kind = raw.get("type")
         if kind is None:
-            issues.append(Issue("missing-key", f"element {index + 1} has no `type`", doc.locate(path), f"valid: {', '.join(MODEL_OF_TYPE)}"))
+            issues.append(
+                Issue(
+                    "missing-key",
+                    f"element {index + 1} has no `type`",
+                    doc.locate(path),
+                    f"valid: {', '.join(MODEL_OF_TYPE)}",
+                )
+            )
             continue
         if kind not in MODEL_OF_TYPE:
-            issues.append(Issue("unknown-element-type", f"there is no element type {kind!r}", doc.locate(path + ("type",)), did_you_mean(str(kind), MODEL_OF_TYPE)))
+            issues.append(
+                Issue(
+                    "unknown-element-type",
+                    f"there is no element type {kind!r}",
+                    doc.locate(path + ("type",)),
+                    did_you_mean(str(kind), MODEL_OF_TYPE),
+                )
+            )
             continue
         if not isinstance(raw.get("name"), str):
-            issues.append(Issue("missing-key", f"element {index + 1} ({kind}) needs a `name` (text)", doc.locate(path + ("name",) if "name" in raw else path)))
+            issues.append(
+                Issue(
+                    "missing-key",
+                    f"element {index + 1} ({kind}) needs a `name` (text)",
+                    doc.locate(path + ("name",) if "name" in raw else path),
+                )
+            )
             continue
         found.append((path, raw))
     return found
@@ -189,7 +260,14 @@ def _find_parent(text: str, child: Path, where: Location, issues: list[Issue]) -
         candidate = (child.parent / text).resolve()
         if candidate.is_file():
             return candidate
-        issues.append(Issue("file-not-found", f"extends {text!r}, but there is no such file", where, "a path is relative to this file; a bare name is a built-in controller"))
+        issues.append(
+            Issue(
+                "file-not-found",
+                f"extends {text!r}, but there is no such file",
+                where,
+                "a path is relative to this file; a bare name is a built-in controller",
+            )
+        )
         return None
     try:
         return configs.find_config(CONTROLLER_KIND, text).resolve()
@@ -199,21 +277,41 @@ def _find_parent(text: str, child: Path, where: Location, issues: list[Issue]) -
         return None
 
 
-def _own_groups(doc: YamlDocument, model: ControllerFile, inherited: Mapping[str, tuple[str, ...]], issues: list[Issue]) -> dict[str, tuple[str, ...]]:
+def _own_groups(
+    doc: YamlDocument, model: ControllerFile, inherited: Mapping[str, tuple[str, ...]], issues: list[Issue]
+) -> dict[str, tuple[str, ...]]:
     groups = dict(inherited)
     for name, members in model.groups.items():
         if name in roles.LEGS or name in BUILTIN_GROUPS:
-            issues.append(Issue("name-clash", f"group {name!r} has the name of a built-in leg or group", doc.locate(("groups", name), key=True), "choose another name"))
+            issues.append(
+                Issue(
+                    "name-clash",
+                    f"group {name!r} has the name of a built-in leg or group",
+                    doc.locate(("groups", name), key=True),
+                    "choose another name",
+                )
+            )
             continue
         legs, unknown = resolve_legs(members, {})
         for bad in unknown:
-            issues.append(Issue("unknown-leg", f"group {name!r} lists {bad!r}, which is not a leg", doc.locate(("groups", name)), did_you_mean(bad, roles.LEGS)))
+            issues.append(
+                Issue(
+                    "unknown-leg",
+                    f"group {name!r} lists {bad!r}, which is not a leg",
+                    doc.locate(("groups", name)),
+                    did_you_mean(bad, roles.LEGS),
+                )
+            )
         groups[name] = tuple(legs)
     return groups
 
 
 def _own_parameters(
-    doc: YamlDocument, model: ControllerFile, groups: Mapping[str, tuple[str, ...]], inherited: Mapping[str, ParameterEntry], issues: list[Issue]
+    doc: YamlDocument,
+    model: ControllerFile,
+    groups: Mapping[str, tuple[str, ...]],
+    inherited: Mapping[str, ParameterEntry],
+    issues: list[Issue],
 ) -> dict[str, ParameterEntry]:
     """The file's tunables and parameters, templates expanded, tunables completed from `inherited`."""
     entries: dict[str, ParameterEntry] = {}
@@ -221,7 +319,14 @@ def _own_parameters(
         for key, parameter in written.items():
             for name, entry in parameter_copies(doc, section, key, parameter, groups, issues):
                 if name in entries:
-                    issues.append(Issue("duplicate-name", f"two tunables or parameters are named {name!r}", entry.where, "names must be unique across `tunables` and `parameters`; rename one"))
+                    issues.append(
+                        Issue(
+                            "duplicate-name",
+                            f"two tunables or parameters are named {name!r}",
+                            entry.where,
+                            "names must be unique across `tunables` and `parameters`; rename one",
+                        )
+                    )
                     continue
                 entries[name] = _completed(name, entry, inherited.get(name), issues) if entry.tunable else entry
     return entries
@@ -236,11 +341,20 @@ def _completed(name: str, entry: ParameterEntry, parent: ParameterEntry | None, 
     missing = [key for key, given in (("description", description), ("min", low), ("max", high)) if not given]
     if missing:
         listed = ", ".join(f"`{key}`" for key in missing)
-        issues.append(Issue("missing-key", f"tunable {name!r} needs {listed}", entry.where, "a tunable is a knob: say what it changes and its range, e.g. `{value: 0.3, description: ..., min: 0, max: 1}`"))
+        issues.append(
+            Issue(
+                "missing-key",
+                f"tunable {name!r} needs {listed}",
+                entry.where,
+                "a tunable is a knob: say what it changes and its range, e.g. `{value: 0.3, description: ..., min: 0, max: 1}`",
+            )
+        )
     return ParameterEntry(entry.value, description, entry.where, entry.file, True, low, high)
 
 
-def _apply_remove(doc: YamlDocument, model: ControllerFile, elements: dict[str, ElementEntry], issues: list[Issue]) -> None:
+def _apply_remove(
+    doc: YamlDocument, model: ControllerFile, elements: dict[str, ElementEntry], issues: list[Issue]
+) -> None:
     for index, pattern in enumerate(model.remove):
         matched = match_names(pattern, elements)
         if not matched:
@@ -249,25 +363,45 @@ def _apply_remove(doc: YamlDocument, model: ControllerFile, elements: dict[str, 
             del elements[name]
 
 
-def _apply_override(doc: YamlDocument, model: ControllerFile, elements: dict[str, ElementEntry], issues: list[Issue]) -> None:
+def _apply_override(
+    doc: YamlDocument, model: ControllerFile, elements: dict[str, ElementEntry], issues: list[Issue]
+) -> None:
     for pattern, patch in model.override.items():
         matched = match_names(pattern, elements)
         if not matched:
-            issues.append(_unknown_element(pattern, elements, doc.locate(("override", pattern), key=True), model.extends))
+            issues.append(
+                _unknown_element(pattern, elements, doc.locate(("override", pattern), key=True), model.extends)
+            )
         for key in ("type", "name", "for_each"):
             if key in patch:
-                issues.append(Issue("bad-override", f"an override cannot change `{key}`", doc.locate(("override", pattern, key), key=True), "remove the element and add a new one instead"))
+                issues.append(
+                    Issue(
+                        "bad-override",
+                        f"an override cannot change `{key}`",
+                        doc.locate(("override", pattern, key), key=True),
+                        "remove the element and add a new one instead",
+                    )
+                )
                 return
         for name in matched:
             entry = elements[name]
             layer = Layer(doc, ("override", pattern), patch)
-            elements[name] = ElementEntry(name, deep_merge(entry.raw, patch), entry.origin.patched(layer), entry.template)
+            elements[name] = ElementEntry(
+                name, deep_merge(entry.raw, patch), entry.origin.patched(layer), entry.template
+            )
 
 
 def _unknown_element(pattern: str, elements: Mapping[str, ElementEntry], where: Location, extends: str | None) -> Issue:
     if extends is None:
-        return Issue("unknown-element", f"no element matches {pattern!r}", where, "`remove` and `override` change the controller named by `extends`, and this file extends none")
-    return Issue("unknown-element", f"{extends!r} has no element matching {pattern!r}", where, did_you_mean(pattern, elements))
+        return Issue(
+            "unknown-element",
+            f"no element matches {pattern!r}",
+            where,
+            "`remove` and `override` change the controller named by `extends`, and this file extends none",
+        )
+    return Issue(
+        "unknown-element", f"{extends!r} has no element matching {pattern!r}", where, did_you_mean(pattern, elements)
+    )
 
 
 def _merge_file(path: Path, chain: tuple[Path, ...], issues: list[Issue]) -> MergedController | None:
@@ -283,7 +417,14 @@ def _merge_file(path: Path, chain: tuple[Path, ...], issues: list[Issue]) -> Mer
             return None
         if parent_path in chain or parent_path == path.resolve():
             cycle = " -> ".join(p.stem for p in (*chain, path.resolve(), parent_path))
-            issues.append(Issue("extends-cycle", f"controllers extend each other in a loop: {cycle}", where, "one of them must stop extending the other"))
+            issues.append(
+                Issue(
+                    "extends-cycle",
+                    f"controllers extend each other in a loop: {cycle}",
+                    where,
+                    "one of them must stop extending the other",
+                )
+            )
             return None
         parent = _merge_file(parent_path, (*chain, path.resolve()), issues)
         if parent is None:
@@ -297,7 +438,14 @@ def _merge_file(path: Path, chain: tuple[Path, ...], issues: list[Issue]) -> Mer
     for element_path, raw in _raw_elements(doc, issues):
         for entry in expand_element(doc, element_path, raw, groups, issues):
             if entry.name in own:
-                issues.append(Issue("duplicate-name", f"two elements are named {entry.name!r}", entry.origin.locate(("name",)), "element names must be unique; rename one"))
+                issues.append(
+                    Issue(
+                        "duplicate-name",
+                        f"two elements are named {entry.name!r}",
+                        entry.origin.locate(("name",)),
+                        "element names must be unique; rename one",
+                    )
+                )
                 continue
             own[entry.name] = entry
             elements[entry.name] = entry

@@ -9,13 +9,22 @@ from __future__ import annotations
 
 import types
 import typing
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 import pydantic
 
 from quadpipe.controllers.language import schema
 
-MARKERS = (schema.Quantity, schema.BodyPoint, schema.PointMap, schema.RoleGlobs, schema.LegSet, schema.FrameName, schema.ElementNames)
+MARKERS = (
+    schema.Quantity,
+    schema.BodyPoint,
+    schema.PointMap,
+    schema.RoleGlobs,
+    schema.LegSet,
+    schema.FrameName,
+    schema.ElementNames,
+)
 """The marker types the checks and the compiler look for."""
 
 

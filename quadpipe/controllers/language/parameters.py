@@ -7,8 +7,9 @@ rather than reported again. The namespaces of element fields add their local nam
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 from quadpipe.anatomy.roles import LEGS, ROLES
 from quadpipe.controllers.language import schema
@@ -77,13 +78,19 @@ def _dependency_order(deps: Mapping[str, set[str]]) -> tuple[list[str], dict[str
     return order, loops
 
 
-def type_parameters(values: Mapping[str, Any], sensors: Mapping[str, expressions.Type], cycles: set[str]) -> ParameterTyping:
+def type_parameters(
+    values: Mapping[str, Any], sensors: Mapping[str, expressions.Type], cycles: set[str]
+) -> ParameterTyping:
     """Check every parameter value, each after the parameters it uses."""
     result = ParameterTyping()
     result.deps = {name: expressions.referenced_names(value) & set(values) for name, value in values.items()}
     order, loops = _dependency_order(result.deps)
     for name, loop in loops.items():
-        result.errors[name] = expressions.ExprError("parameter-cycle", f"parameter {name!r} depends on itself: {' -> '.join(loop)}", "break the loop by giving one of them a plain value")
+        result.errors[name] = expressions.ExprError(
+            "parameter-cycle",
+            f"parameter {name!r} depends on itself: {' -> '.join(loop)}",
+            "break the loop by giving one of them a plain value",
+        )
     texts = {name: str(value) for name, value in values.items()}
     for name in order:
         if result.deps[name] & (set(result.errors) | result.skipped):
@@ -104,11 +111,21 @@ def element_namespace(element: schema._Element, namespace: expressions.Namespace
             ends = expressions.resolve_point_name(element.from_), expressions.resolve_point_name(element.to)
         except expressions.ExprError:
             ends = element.from_, element.to
-        return namespace.with_locals(rest=expressions.Expr("var", expressions.Type(expressions.SCALAR, units.LENGTH), value=expressions.rest_distance_key(*ends)))
+        return namespace.with_locals(
+            rest=expressions.Expr(
+                "var", expressions.Type(expressions.SCALAR, units.LENGTH), value=expressions.rest_distance_key(*ends)
+            )
+        )
     if isinstance(element, schema.Spring):
-        return namespace.with_locals(rest=expressions.Expr("num", expressions.Type(expressions.SCALAR, units.ANGLE), value=0.0))
+        return namespace.with_locals(
+            rest=expressions.Expr("num", expressions.Type(expressions.SCALAR, units.ANGLE), value=0.0)
+        )
     if isinstance(element, schema.StateMachine):
-        return namespace.with_locals(time_in_state=expressions.Expr("var", expressions.Type(expressions.SCALAR, units.TIME), value=f"time_in_state:{element.name}"))
+        return namespace.with_locals(
+            time_in_state=expressions.Expr(
+                "var", expressions.Type(expressions.SCALAR, units.TIME), value=f"time_in_state:{element.name}"
+            )
+        )
     return namespace
 
 

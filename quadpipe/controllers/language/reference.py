@@ -18,15 +18,41 @@ from typing import Any
 import pydantic
 
 from quadpipe.anatomy import roles
-from quadpipe.quantities.expressions import CONSTANTS, FUNCTIONS, LEG_LANDMARKS, LOCAL_HELP, POINT_ANCHORS, TIME_VARIABLE
-from quadpipe.controllers.language.schema import BodyPoint, ControllerFile, Direction, ELEMENT_TYPES, ELEMENT_TYPE_NAMES, Elastic, ElementNames, FrameName, LegSet, Parameter, PointMap, Quantity, RoleGlobs, SENSOR_KINDS, State, Strength, Transition, Tunable
-from quadpipe.quantities.units import UNITS, dimension_name
 from quadpipe.controllers.language.loader import unwrap_annotation
-from quadpipe.controllers.language.templates import BUILTIN_GROUPS
 from quadpipe.controllers.language.marked import field_markers
 from quadpipe.controllers.language.parameters import SENSOR_TYPES
+from quadpipe.controllers.language.schema import (
+    ELEMENT_TYPE_NAMES,
+    ELEMENT_TYPES,
+    SENSOR_KINDS,
+    BodyPoint,
+    ControllerFile,
+    Direction,
+    Elastic,
+    ElementNames,
+    FrameName,
+    LegSet,
+    Parameter,
+    PointMap,
+    Quantity,
+    RoleGlobs,
+    State,
+    Strength,
+    Transition,
+    Tunable,
+)
+from quadpipe.controllers.language.templates import BUILTIN_GROUPS
 from quadpipe.controllers.language.validate import ISSUE_CODES
 from quadpipe.core.yamlio import JSON_SCHEMA_DIALECT
+from quadpipe.quantities.expressions import (
+    CONSTANTS,
+    FUNCTIONS,
+    LEG_LANDMARKS,
+    LOCAL_HELP,
+    POINT_ANCHORS,
+    TIME_VARIABLE,
+)
+from quadpipe.quantities.units import UNITS, dimension_name
 
 SCHEMA_PATH = Path("schemas") / "controller.schema.json"
 """Where the JSON Schema is committed, relative to the repository root."""
@@ -44,7 +70,11 @@ PARTS: tuple[type[pydantic.BaseModel], ...] = (Direction, Strength, Elastic, Tun
 def controller_json_schema() -> dict[str, Any]:
     """The JSON Schema of controller files, for editors (yaml-language-server) and CI."""
     schema = ControllerFile.model_json_schema(by_alias=True)
-    return {"$schema": JSON_SCHEMA_DIALECT, "title": "quadpipe controller", **{k: v for k, v in schema.items() if k != "title"}}
+    return {
+        "$schema": JSON_SCHEMA_DIALECT,
+        "title": "quadpipe controller",
+        **{k: v for k, v in schema.items() if k != "title"},
+    }
 
 
 def json_schema_text() -> str:
@@ -166,7 +196,10 @@ def _names_list() -> str:
 def _points_text() -> str:
     anchors = ", ".join(f"`.{a}`" for a in POINT_ANCHORS)
     rows = ["| leg point | front leg | hind leg |", "|---|---|---|"]
-    rows += [f"| `<leg>.{mark}` | `<leg>_{by_front[True]}` | `<leg>_{by_front[False]}` |" for mark, by_front in LEG_LANDMARKS.items()]
+    rows += [
+        f"| `<leg>.{mark}` | `<leg>_{by_front[True]}` | `<leg>_{by_front[False]}` |"
+        for mark, by_front in LEG_LANDMARKS.items()
+    ]
     return (
         f"A body point is a role with an anchor: {anchors} (its proximal joint, its far end, halfway); "
         "a bare role means `.start`. A force at a point acts on that role's bone.\n\n" + "\n".join(rows) + "\n"

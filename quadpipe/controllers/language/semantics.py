@@ -16,16 +16,17 @@ with a `Quantity(...)` marker is checked without touching the checks.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any
 
-from quadpipe.core import configs
 from quadpipe.controllers.language.element_checks import canonical
 from quadpipe.controllers.language.entries import Bound, ParameterEntry
 from quadpipe.controllers.language.loader import CONTROLLER_KIND, merge_controller
 from quadpipe.controllers.language.machine_checks import MachineChecks
 from quadpipe.controllers.language.parameters import ParameterTyping, clash, type_parameters
 from quadpipe.controllers.language.spec import ControllerSpec, MachineSpec, ParameterSpec
+from quadpipe.core import configs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.quantities import expressions
 
@@ -46,11 +47,21 @@ class _Analysis(MachineChecks):
         for name, parameter in self.merged.parameters.items():
             self._check_name(name, f"parameter {name!r}", parameter.where)
             if name in self.sensors or name in self.cycles:
-                self.error("name-clash", f"parameter {name!r} has the name of an element used in expressions", parameter.where, "rename one of them")
+                self.error(
+                    "name-clash",
+                    f"parameter {name!r} has the name of an element used in expressions",
+                    parameter.where,
+                    "rename one of them",
+                )
 
     def _check_name(self, name: str, what: str, where: Location) -> None:
         if not IDENTIFIER.match(name):
-            self.error("bad-name", f"{what} is used in expressions, so its name may only hold letters, digits and _", where, "e.g. hip_pedal")
+            self.error(
+                "bad-name",
+                f"{what} is used in expressions, so its name may only hold letters, digits and _",
+                where,
+                "e.g. hip_pedal",
+            )
         elif (meaning := clash(name)) is not None:
             self.error("name-clash", f"{what} has the name of {meaning}", where, "choose another name")
             self.clashing.add(name)
@@ -65,9 +76,14 @@ class _Analysis(MachineChecks):
             self.used |= expressions.referenced_names(values[name]) - {name}
         if not self.overrides:
             return typing_
-        for name, value in self.overrides.items():
+        for name in self.overrides:
             if name not in values:
-                self.error("unknown-parameter", f"the controller has no parameter {name!r}", self.override_where(name), did_you_mean(name, values))
+                self.error(
+                    "unknown-parameter",
+                    f"the controller has no parameter {name!r}",
+                    self.override_where(name),
+                    did_you_mean(name, values),
+                )
         known = {name: value for name, value in self.overrides.items() if name in values}
         changed = type_parameters({**values, **known}, self.sensors, self.cycles)
         for name in known:
@@ -89,6 +105,7 @@ class _Analysis(MachineChecks):
                 f"the controller has {self.merged.parameters[name].value!r}",
             )
             self.clashing.add(name)
+
     # -- whole controller
 
     def run(self) -> ControllerSpec | None:
@@ -96,7 +113,12 @@ class _Analysis(MachineChecks):
         typing_ = self.type_parameters()
         self.check_tunables(typing_)
         failed = set(typing_.errors) | typing_.skipped | self.clashing
-        namespace = expressions.Namespace(typing_.exprs, self.sensors, self.cycles, parameter_texts={n: str(e.value) for n, e in self.merged.parameters.items()})
+        namespace = expressions.Namespace(
+            typing_.exprs,
+            self.sensors,
+            self.cycles,
+            parameter_texts={n: str(e.value) for n, e in self.merged.parameters.items()},
+        )
         elements = {}
         for name, entry in self.entries.items():
             checked = self.check_element(entry, entry.model, entry.origin, namespace, failed)
@@ -113,13 +135,25 @@ class _Analysis(MachineChecks):
         self._warn_unused()
         if any(issue.severity == "error" for issue in self.issues):
             return None
-        parameters = {name: self._parameter_spec(name, entry, typing_) for name, entry in self.merged.parameters.items()}
+        parameters = {
+            name: self._parameter_spec(name, entry, typing_) for name, entry in self.merged.parameters.items()
+        }
         warnings = tuple(issue for issue in self.issues if issue.severity != "error")
-        return ControllerSpec(self.merged.name, self.merged.description, tuple(self.merged.sources), parameters, elements, machines, warnings)
+        return ControllerSpec(
+            self.merged.name,
+            self.merged.description,
+            tuple(self.merged.sources),
+            parameters,
+            elements,
+            machines,
+            warnings,
+        )
 
     def _parameter_spec(self, name: str, entry: ParameterEntry, typing_: ParameterTyping) -> ParameterSpec:
         """The spec of a parameter or a tunable, with its override's value and place if it has one."""
-        value, where = (self.overrides[name], self.override_where(name)) if name in self.overrides else (entry.value, entry.where)
+        value, where = (
+            (self.overrides[name], self.override_where(name)) if name in self.overrides else (entry.value, entry.where)
+        )
         limits = (entry.low.value, entry.high.value) if entry.tunable and entry.low and entry.high else None
         return ParameterSpec(name, value, entry.description, typing_.exprs[name].type, where, limits)
 
@@ -132,17 +166,37 @@ class _Analysis(MachineChecks):
             if entry.tunable and name in typing_.exprs and name not in self.clashing:
                 self._check_tunable(name, entry, typing_.exprs[name], namespace)
 
-    def _check_tunable(self, name: str, entry: ParameterEntry, expr: expressions.Expr, namespace: expressions.Namespace) -> None:
-        value, where = (self.overrides[name], self.override_where(name)) if name in self.overrides else (entry.value, entry.where)
+    def _check_tunable(
+        self, name: str, entry: ParameterEntry, expr: expressions.Expr, namespace: expressions.Namespace
+    ) -> None:
+        value, where = (
+            (self.overrides[name], self.override_where(name)) if name in self.overrides else (entry.value, entry.where)
+        )
         if expr.type.kind != expressions.SCALAR or not expr.is_constant:
-            got = expr.type.describe() if expr.type.kind != expressions.SCALAR else "a value that changes during the simulation"
-            self.error("tunable-not-constant", f"tunable {name!r} must be a constant number, got {got}", where, "a tunable is a knob; formulas go in `parameters:`")
+            got = (
+                expr.type.describe()
+                if expr.type.kind != expressions.SCALAR
+                else "a value that changes during the simulation"
+            )
+            self.error(
+                "tunable-not-constant",
+                f"tunable {name!r} must be a constant number, got {got}",
+                where,
+                "a tunable is a knob; formulas go in `parameters:`",
+            )
             return
-        low, high = (self._bound(name, end, bound, expr.type, namespace) for end, bound in (("min", entry.low), ("max", entry.high)))
+        low, high = (
+            self._bound(name, end, bound, expr.type, namespace)
+            for end, bound in (("min", entry.low), ("max", entry.high))
+        )
         if low is None or high is None:
             return
         if low > high:
-            self.error("bad-range", f"the range of tunable {name!r} is empty: min {entry.low.value} is above max {entry.high.value}", entry.low.where)
+            self.error(
+                "bad-range",
+                f"the range of tunable {name!r} is empty: min {entry.low.value} is above max {entry.high.value}",
+                entry.low.where,
+            )
         elif not low <= float(expressions.evaluate_constant(expr)) <= high:
             self.error(
                 "out-of-range",
@@ -151,7 +205,9 @@ class _Analysis(MachineChecks):
                 "give a value in the range (bw, HP and g count as for an animal of bw 1 N and HP 1 m), or widen the range in the controller",
             )
 
-    def _bound(self, name: str, end: str, bound: Bound | None, typ: expressions.Type, namespace: expressions.Namespace) -> float | None:
+    def _bound(
+        self, name: str, end: str, bound: Bound | None, typ: expressions.Type, namespace: expressions.Namespace
+    ) -> float | None:
         """The value of one end of a tunable's range, None if it has a problem (reported)."""
         if bound is None:
             return None
@@ -161,7 +217,11 @@ class _Analysis(MachineChecks):
             self.error(exc.code, exc.message, bound.where, exc.hint)
             return None
         if not expr.is_constant or (expr.type != typ and not _plain_zero(expr)):
-            self.error("wrong-dimension", f"the {end} of tunable {name!r} must be a constant {typ.describe()}, like its value, got {expr.type.describe()}", bound.where)
+            self.error(
+                "wrong-dimension",
+                f"the {end} of tunable {name!r} must be a constant {typ.describe()}, like its value, got {expr.type.describe()}",
+                bound.where,
+            )
             return None
         return float(expressions.evaluate_constant(expr))
 
@@ -183,10 +243,20 @@ class _Analysis(MachineChecks):
         for name, parameter in self.merged.parameters.items():
             if parameter.file == top and name not in self.used:
                 what = "tunable" if parameter.tunable else "parameter"
-                self.warn("unused-parameter", f"{what} {name!r} is never used", parameter.where, "remove it, or use it in an element")
+                self.warn(
+                    "unused-parameter",
+                    f"{what} {name!r} is never used",
+                    parameter.where,
+                    "remove it, or use it in an element",
+                )
         for name, entry in self.entries.items():
             if entry.raw["type"] == "sensor" and name not in self.used and entry.origin.layers[0].doc.file == top:
-                self.warn("unused-sensor", f"sensor {name!r} is never used", entry.origin.locate(("name",)), "use it in an expression by its name, or remove it")
+                self.warn(
+                    "unused-sensor",
+                    f"sensor {name!r} is never used",
+                    entry.origin.locate(("name",)),
+                    "use it in an expression by its name, or remove it",
+                )
 
 
 def _plain_zero(expr: expressions.Expr) -> bool:

@@ -10,12 +10,13 @@ and shorthands expanded (a bare vector direction became `{vector: ...}`, a bare 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
-from quadpipe.quantities import expressions
 from quadpipe.controllers.language.schema import Element
 from quadpipe.core.errors import Issue, Location
+from quadpipe.quantities import expressions
 
 
 @dataclass(frozen=True)
@@ -116,4 +117,3 @@ class ControllerSpec:
     def tunables(self) -> dict[str, ParameterSpec]:
         """The knobs of the controller, in definition order."""
         return {name: parameter for name, parameter in self.parameters.items() if parameter.tunable}
-

@@ -9,7 +9,8 @@ reported.
 from __future__ import annotations
 
 import re
-from typing import Any, Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
+from typing import Any
 
 from quadpipe.anatomy import roles
 from quadpipe.controllers.language.entries import Bound, ElementEntry, Layer, Origin, ParameterEntry
@@ -67,7 +68,12 @@ def _substitute(value: Any, leg: str, key_map: dict[Any, Any]) -> Any:
 
 
 def template_legs(
-    for_each: Any, name: str, what: str, where: Callable[[str], Location], groups: Mapping[str, tuple[str, ...]], issues: list[Issue]
+    for_each: Any,
+    name: str,
+    what: str,
+    where: Callable[[str], Location],
+    groups: Mapping[str, tuple[str, ...]],
+    issues: list[Issue],
 ) -> list[str]:
     """The legs a `for_each` template is copied for; none when it cannot be (reported).
 
@@ -81,19 +87,39 @@ def template_legs(
     """
     items = for_each if isinstance(for_each, list) else [for_each]
     if not all(isinstance(item, str) for item in items):
-        issues.append(Issue("invalid-value", "`for_each` lists legs (lf, rf, lh, rh) or group names", where("for_each")))
+        issues.append(
+            Issue("invalid-value", "`for_each` lists legs (lf, rf, lh, rh) or group names", where("for_each"))
+        )
         return []
     legs, unknown = resolve_legs(items, groups)
     for bad in unknown:
-        issues.append(Issue("unknown-leg", f"{bad!r} is neither a leg nor a group", where("for_each"), did_you_mean(bad, [*roles.LEGS, *groups])))
+        issues.append(
+            Issue(
+                "unknown-leg",
+                f"{bad!r} is neither a leg nor a group",
+                where("for_each"),
+                did_you_mean(bad, [*roles.LEGS, *groups]),
+            )
+        )
     if LEG_PLACEHOLDER not in name:
-        issues.append(Issue("template-name", f"{what} {name!r} has `for_each` but its name lacks {LEG_PLACEHOLDER}", where("name"), f'each copy needs its own name, e.g. "{LEG_PLACEHOLDER}_{name}"'))
+        issues.append(
+            Issue(
+                "template-name",
+                f"{what} {name!r} has `for_each` but its name lacks {LEG_PLACEHOLDER}",
+                where("name"),
+                f'each copy needs its own name, e.g. "{LEG_PLACEHOLDER}_{name}"',
+            )
+        )
         return []
     return legs
 
 
 def expand_element(
-    doc: YamlDocument, path: tuple[Any, ...], raw: dict[str, Any], groups: Mapping[str, tuple[str, ...]], issues: list[Issue]
+    doc: YamlDocument,
+    path: tuple[Any, ...],
+    raw: dict[str, Any],
+    groups: Mapping[str, tuple[str, ...]],
+    issues: list[Issue],
 ) -> list[ElementEntry]:
     """One entry per leg for a `for_each` element, or the element itself."""
     for_each = raw.get("for_each")
@@ -123,8 +149,18 @@ def placeholder_issues(entry: ElementEntry) -> list[Issue]:
 def _placeholder_issue(placeholder: str, label: str, where: Location) -> Issue:
     """A placeholder left in a text: a known one outside `for_each`, or an unknown one."""
     if placeholder in PLACEHOLDERS:
-        return Issue("unknown-placeholder", f"{placeholder} in {label}, which has no `for_each`", where, "add `for_each: all_legs` (or the legs it is for)")
-    return Issue("unknown-placeholder", f"unknown placeholder {placeholder} in {label}", where, f"the placeholders are {' and '.join(PLACEHOLDERS)}")
+        return Issue(
+            "unknown-placeholder",
+            f"{placeholder} in {label}, which has no `for_each`",
+            where,
+            "add `for_each: all_legs` (or the legs it is for)",
+        )
+    return Issue(
+        "unknown-placeholder",
+        f"unknown placeholder {placeholder} in {label}",
+        where,
+        f"the placeholders are {' and '.join(PLACEHOLDERS)}",
+    )
 
 
 def _strings(value: Any, path: tuple[Any, ...]) -> Iterable[tuple[tuple[Any, ...], str]]:
@@ -141,7 +177,12 @@ def _strings(value: Any, path: tuple[Any, ...]) -> Iterable[tuple[tuple[Any, ...
 
 
 def parameter_copies(
-    doc: YamlDocument, section: str, key: str, parameter: Parameter, groups: Mapping[str, tuple[str, ...]], issues: list[Issue]
+    doc: YamlDocument,
+    section: str,
+    key: str,
+    parameter: Parameter,
+    groups: Mapping[str, tuple[str, ...]],
+    issues: list[Issue],
 ) -> list[tuple[str, ParameterEntry]]:
     """(name, entry) of a parameter or a tunable as written: one per leg of its `for_each`, or itself.
 
@@ -167,7 +208,12 @@ def parameter_copies(
     copies = []
     for leg in template_legs(parameter.for_each, key, what, where, groups, issues):
         value, description = _substitute(parameter.value, leg, {}), _substitute(parameter.description, leg, {})
-        copies.append((_substitute(key, leg, {}), ParameterEntry(value, description, entry.where, entry.file, entry.tunable, entry.low, entry.high)))
+        copies.append(
+            (
+                _substitute(key, leg, {}),
+                ParameterEntry(value, description, entry.where, entry.file, entry.tunable, entry.low, entry.high),
+            )
+        )
     return copies
 
 
@@ -177,5 +223,8 @@ def _parameter_entry(doc: YamlDocument, path: tuple[str, str], parameter: Parame
     where = doc.locate(path + ("value",) if long_form else path)
     if not isinstance(parameter, Tunable):
         return ParameterEntry(parameter.value, parameter.description, where, doc.file)
-    low, high = (Bound(value, doc.locate(path + (end,))) if value is not None else None for end, value in (("min", parameter.min), ("max", parameter.max)))
+    low, high = (
+        Bound(value, doc.locate(path + (end,))) if value is not None else None
+        for end, value in (("min", parameter.min), ("max", parameter.max))
+    )
     return ParameterEntry(parameter.value, parameter.description, where, doc.file, True, low, high)

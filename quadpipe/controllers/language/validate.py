@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Iterable, Sequence
 
 from quadpipe.controllers.language.semantics import analyze_controller
 from quadpipe.core import codes
@@ -28,17 +28,59 @@ FORMATS: tuple[str, ...] = ("text", "json", "github")
 
 ISSUE_CODES: dict[str, str] = codes.meanings(
     (
-        "yaml-syntax", "duplicate-key", "file-unreadable", "file-not-found", "unknown-controller",
-        "extends-cycle", "unknown-key", "missing-key", "invalid-value", "unsupported-schema",
-        "unknown-element-type", "duplicate-name", "template-name", "unknown-placeholder", "unknown-leg",
-        "unknown-element", "bad-override", "name-clash", "bad-name", "expression-syntax",
-        "forbidden-syntax", "unknown-name", "unknown-function", "unknown-cycle", "wrong-arguments",
-        "wrong-type", "wrong-dimension", "dimension-mismatch", "parameter-cycle", "unknown-parameter",
-        "out-of-range", "bad-range", "tunable-not-constant",
-        "unknown-role", "glob-matches-nothing", "no-joint", "bad-point", "duplicate-point",
-        "unknown-frame", "direction-kind", "strength-kind", "zero-vector", "unused-key", "nothing-to-do",
-        "same-point", "bad-weights", "parallel-axis", "unknown-state", "not-switchable", "state-conflict",
-        "unused-parameter", "unused-sensor", "unreachable-state",
+        "yaml-syntax",
+        "duplicate-key",
+        "file-unreadable",
+        "file-not-found",
+        "unknown-controller",
+        "extends-cycle",
+        "unknown-key",
+        "missing-key",
+        "invalid-value",
+        "unsupported-schema",
+        "unknown-element-type",
+        "duplicate-name",
+        "template-name",
+        "unknown-placeholder",
+        "unknown-leg",
+        "unknown-element",
+        "bad-override",
+        "name-clash",
+        "bad-name",
+        "expression-syntax",
+        "forbidden-syntax",
+        "unknown-name",
+        "unknown-function",
+        "unknown-cycle",
+        "wrong-arguments",
+        "wrong-type",
+        "wrong-dimension",
+        "dimension-mismatch",
+        "parameter-cycle",
+        "unknown-parameter",
+        "out-of-range",
+        "bad-range",
+        "tunable-not-constant",
+        "unknown-role",
+        "glob-matches-nothing",
+        "no-joint",
+        "bad-point",
+        "duplicate-point",
+        "unknown-frame",
+        "direction-kind",
+        "strength-kind",
+        "zero-vector",
+        "unused-key",
+        "nothing-to-do",
+        "same-point",
+        "bad-weights",
+        "parallel-axis",
+        "unknown-state",
+        "not-switchable",
+        "state-conflict",
+        "unused-parameter",
+        "unused-sensor",
+        "unreachable-state",
     )
 )
 """Every issue code `validate_files` may report, with what it means (from `quadpipe.core.codes`)."""
@@ -88,7 +130,9 @@ def format_text(issues: Sequence[Issue], checked: int) -> str:
     files = f"{checked} file{'s' if checked != 1 else ''}"
     if not issues:
         return f"{files} checked: no problems\n"
-    summary = f"{files} checked: {errors} error{'s' if errors != 1 else ''}, {warnings} warning{'s' if warnings != 1 else ''}"
+    summary = (
+        f"{files} checked: {errors} error{'s' if errors != 1 else ''}, {warnings} warning{'s' if warnings != 1 else ''}"
+    )
     return "".join(issue.format() + "\n" for issue in issues) + summary + "\n"
 
 
@@ -150,7 +194,9 @@ def validate_files(paths: Sequence[str | Path], fmt: str = "text") -> tuple[str,
         QuadpipeError: an unknown format.
     """
     if fmt not in FORMATS:
-        raise QuadpipeError.single("unknown-format", f"there is no output format {fmt!r}", hint=f"valid: {', '.join(FORMATS)}")
+        raise QuadpipeError.single(
+            "unknown-format", f"there is no output format {fmt!r}", hint=f"valid: {', '.join(FORMATS)}"
+        )
     issues = collect_issues(paths)
     code = 1 if any(issue.severity == "error" for issue in issues) else 0
     if fmt == "json":

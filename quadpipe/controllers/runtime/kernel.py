@@ -24,7 +24,7 @@ One call of `run` does, in order:
 from __future__ import annotations
 
 import math
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numba
 import numpy as np
@@ -52,7 +52,22 @@ VECTOR_RESULT, VECTOR_A, VECTOR_B, VECTOR_C = 1, 2, 4, 8
 # Opcodes. Arithmetic (dst, a, b, c are registers), elementwise (see `VECTOR_RESULT`).
 ADD, SUB, MUL, DIV, POW, MIN, MAX, ATAN2 = 1, 2, 3, 4, 5, 6, 7, 8
 LT, LE, GT, GE, AND, OR, STEP = 9, 10, 11, 12, 13, 14, 15
-NEG, NOT, SIN, COS, TAN, ASIN, ACOS, ATAN, SQRT, EXP, LOG, ABS, SIGN, WRAP = 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29
+NEG, NOT, SIN, COS, TAN, ASIN, ACOS, ATAN, SQRT, EXP, LOG, ABS, SIGN, WRAP = (
+    16,
+    17,
+    18,
+    19,
+    20,
+    21,
+    22,
+    23,
+    24,
+    25,
+    26,
+    27,
+    28,
+    29,
+)
 CLAMP, SMOOTHSTEP, MIX, SELECT, LEG_SWEEP, LEG_LIFT = 30, 31, 32, 33, 34, 35
 # Vector ops (dst, a, b are registers; COMP's b is the component index).
 VEC, COMP, NORM, NORMALIZE, DOT, CROSS, ANGLE, HORIZONTAL = 40, 41, 42, 43, 44, 45, 46, 47
@@ -94,7 +109,9 @@ REAL_ARRAYS = (
  NORMALS, HEADING_FRAMES) = range(len(REAL_ARRAYS))  # fmt: skip
 
 
-def pack(arrays: Mapping[str, np.ndarray], names: Sequence[str], dtype: type) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+def pack(
+    arrays: Mapping[str, np.ndarray], names: Sequence[str], dtype: type
+) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
     """Copy named arrays into one buffer, so the kernel takes two arguments instead of many.
 
     Returns:
@@ -246,7 +263,12 @@ def _unit_into(out: np.ndarray, x: float, y: float, z: float) -> None:
 @numba.njit(cache=True)
 def _point(xpos, xmat, body, offset, out) -> None:
     for k in range(3):
-        out[k] = xpos[body, k] + xmat[body, 3 * k] * offset[0] + xmat[body, 3 * k + 1] * offset[1] + xmat[body, 3 * k + 2] * offset[2]
+        out[k] = (
+            xpos[body, k]
+            + xmat[body, 3 * k] * offset[0]
+            + xmat[body, 3 * k + 1] * offset[1]
+            + xmat[body, 3 * k + 2] * offset[2]
+        )
 
 
 @numba.njit(cache=True)
@@ -305,11 +327,26 @@ def run(
     more: the rest is ignored).
     """
     n = reg.shape[1]
-    point_body, frame_body = _matrix(integers, integer_layout, POINT_BODY), _matrix(integers, integer_layout, FRAME_BODY)
-    leg_of_geom, animal_of_geom = _flat(integers, integer_layout, LEG_OF_GEOM), _flat(integers, integer_layout, ANIMAL_OF_GEOM)
-    heading_points, body_root = _flat(integers, integer_layout, HEADING_POINTS), _flat(integers, integer_layout, BODY_ROOT)
-    spring_start, spring_dof = _flat(integers, integer_layout, SPRING_START), _matrix(integers, integer_layout, SPRING_DOF)
-    spring_qpos, spring_twist = _matrix(integers, integer_layout, SPRING_QPOS), _matrix(integers, integer_layout, SPRING_TWIST)
+    point_body, frame_body = (
+        _matrix(integers, integer_layout, POINT_BODY),
+        _matrix(integers, integer_layout, FRAME_BODY),
+    )
+    leg_of_geom, animal_of_geom = (
+        _flat(integers, integer_layout, LEG_OF_GEOM),
+        _flat(integers, integer_layout, ANIMAL_OF_GEOM),
+    )
+    heading_points, body_root = (
+        _flat(integers, integer_layout, HEADING_POINTS),
+        _flat(integers, integer_layout, BODY_ROOT),
+    )
+    spring_start, spring_dof = (
+        _flat(integers, integer_layout, SPRING_START),
+        _matrix(integers, integer_layout, SPRING_DOF),
+    )
+    spring_qpos, spring_twist = (
+        _matrix(integers, integer_layout, SPRING_QPOS),
+        _matrix(integers, integer_layout, SPRING_TWIST),
+    )
     slot_body, state = _matrix(integers, integer_layout, SLOT_BODY), _matrix(integers, integer_layout, STATE)
     sensor_ready = _flat(integers, integer_layout, SENSOR_READY)
     point_offset, base_damping = _block(reals, real_layout, POINT_OFFSET), _flat(reals, real_layout, BASE_DAMPING)
@@ -324,7 +361,15 @@ def run(
         damping[:] = 0.0
     pc = first
     while pc < last:
-        op, dst, a, b, c, d, e = code[pc, 0], code[pc, 1], code[pc, 2], code[pc, 3], code[pc, 4], code[pc, 5], code[pc, 6]
+        op, dst, a, b, c, d, e = (
+            code[pc, 0],
+            code[pc, 1],
+            code[pc, 2],
+            code[pc, 3],
+            code[pc, 4],
+            code[pc, 5],
+            code[pc, 6],
+        )
         pc += 1
         if op < VEC:
             width = 3 if e & VECTOR_RESULT else 1

@@ -27,12 +27,74 @@ from typing import Any
 
 import numpy as np
 
-from quadpipe.controllers.runtime.kernel import ABS, ACOS, ADD, ADVANCE, AND, ANGLE, ASIN, ATAN, ATAN2, BODYROT, CLAMP, CODE_WIDTH, COMP, CONTACT, COS, CROSS, DIV, DOT, EXP, FORCE, GE, GROUND_NORMAL, GT, HEADING, HORIZONTAL, JUMP_IF_NONE, LE, LEG_LIFT, LEG_SWEEP, LOG, LT, MASK, MAX, MIN, MIX, MUL, NEG, NORM, NORMALIZE, NOT, OR, PHASE, POINT, POW, SELECT, SIGN, SIN, SMOOTH, SMOOTHSTEP, SPRING, SQRT, STEP, SUB, TAN, TIME, TIS, TRANSITION, VEC, VELOCITY, WRAP, ZERO
 from quadpipe.anatomy.roles import LEGS
-from quadpipe.quantities.expressions import Compiled, Expr, TIME_VARIABLE, Type, VECTOR, compile_expr
 from quadpipe.controllers.language import schema
-from quadpipe.quantities import units
 from quadpipe.controllers.language.compiler import CompiledController, CompiledElement
+from quadpipe.controllers.runtime.kernel import (
+    ABS,
+    ACOS,
+    ADD,
+    ADVANCE,
+    AND,
+    ANGLE,
+    ASIN,
+    ATAN,
+    ATAN2,
+    BODYROT,
+    CLAMP,
+    CODE_WIDTH,
+    COMP,
+    CONTACT,
+    COS,
+    CROSS,
+    DIV,
+    DOT,
+    EXP,
+    FORCE,
+    GE,
+    GROUND_NORMAL,
+    GT,
+    HEADING,
+    HORIZONTAL,
+    JUMP_IF_NONE,
+    LE,
+    LEG_LIFT,
+    LEG_SWEEP,
+    LOG,
+    LT,
+    MASK,
+    MAX,
+    MIN,
+    MIX,
+    MUL,
+    NEG,
+    NORM,
+    NORMALIZE,
+    NOT,
+    OR,
+    PHASE,
+    POINT,
+    POW,
+    SELECT,
+    SIGN,
+    SIN,
+    SMOOTH,
+    SMOOTHSTEP,
+    SPRING,
+    SQRT,
+    STEP,
+    SUB,
+    TAN,
+    TIME,
+    TIS,
+    TRANSITION,
+    VEC,
+    VELOCITY,
+    WRAP,
+    ZERO,
+)
+from quadpipe.quantities import units
+from quadpipe.quantities.expressions import TIME_VARIABLE, VECTOR, Compiled, Expr, Type, compile_expr
 
 FUNCTION_OPS: dict[str, int] = {
     "sin": SIN, "cos": COS, "tan": TAN, "asin": ASIN, "acos": ACOS, "atan": ATAN,
@@ -179,7 +241,9 @@ class _Lowerer:
     def typed_constant(self, value: np.ndarray, typ: Type) -> int:
         return self.vector_constant(value) if typ.kind == VECTOR else self.scalar_constant(value)
 
-    def shared(self, needs: frozenset[str], vector: bool, op: int, a: int = 0, b: int = 0, c: int = 0, flags: int = 0) -> int:
+    def shared(
+        self, needs: frozenset[str], vector: bool, op: int, a: int = 0, b: int = 0, c: int = 0, flags: int = 0
+    ) -> int:
         """The register of `op(a, b, c)`: computed once, reused while still valid."""
         register = self.memo.registers.get((op, a, b, c))
         if register is None:
@@ -303,7 +367,9 @@ class _Lowerer:
     def sensor(self, element: CompiledElement) -> None:
         spec: schema.Sensor = element.spec
         if spec.kind == "balance":
-            horizon = self.value(element.value("horizon")) if ("horizon",) in element.values else self.scalar_constant(1.0)
+            horizon = (
+                self.value(element.value("horizon")) if ("horizon",) in element.values else self.scalar_constant(1.0)
+            )
             raw = self.op(ADD, self.vector_constant(self.gravity), self.op(DIV, self.velocity(spec.at), horizon))
         elif spec.kind == "velocity":
             raw = self.velocity(spec.at)
@@ -408,7 +474,9 @@ class _Lowerer:
             vector = self.op(SUB, self.value(element.value("direction", "toward")), acting)
         else:
             horizon = self.value(element.value("direction", "horizon"))
-            vector = self.op(ADD, self.vector_constant(self.gravity), self.op(DIV, self.velocity(direction.balance), horizon))
+            vector = self.op(
+                ADD, self.vector_constant(self.gravity), self.op(DIV, self.velocity(direction.balance), horizon)
+            )
         if direction.horizontal:
             vector = self.op(HORIZONTAL, vector)
         return self.op(NORMALIZE, vector)
@@ -417,7 +485,9 @@ class _Lowerer:
         spec = element.spec
         span = self.op(SUB, end, start)
         length, along = self.op(NORM, span), self.op(NORMALIZE, span)
-        target = self.op(MUL, self.value(element.value("elastic", "rest_length")), self.value(element.value("elastic", "ratio")))
+        target = self.op(
+            MUL, self.value(element.value("elastic", "rest_length")), self.value(element.value("elastic", "ratio"))
+        )
         speed = self.op(DOT, self.op(SUB, self.velocity(spec.to), self.velocity(spec.from_)), along)
         stretch = self.op(MUL, self.value(element.value("elastic", "stiffness")), self.op(SUB, target, length))
         tension = self.op(SUB, stretch, self.op(MUL, self.value(element.value("elastic", "damping")), speed))
@@ -447,7 +517,9 @@ class _Lowerer:
         for point in spec.sites:
             turns = self.op(ADD, phase, self.value(element.value("sites", point)))
             angle = self.op(MUL, turns, self.scalar_constant(TWO_PI))
-            direction = self.op(ADD, self.op(MUL, reference, self.op(COS, angle)), self.op(MUL, across, self.op(SIN, angle)))
+            direction = self.op(
+                ADD, self.op(MUL, reference, self.op(COS, angle)), self.op(MUL, across, self.op(SIN, angle))
+            )
             self.force(point, self.point(point), self.op(MUL, direction, strength), "cycle")
 
     # ------------------------------------------------------------------ the whole step

@@ -22,18 +22,19 @@ Each step (between `mj_step1` and `mj_step2`, so positions and velocities are cu
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import mujoco
 import numpy as np
 
-from quadpipe.controllers.runtime.kernel import HEADING_MIN_NORM, INTEGER_ARRAYS, REAL_ARRAYS, pack, run
 from quadpipe.anatomy.roles import FOOT_BONES, LEGS, ROLES
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
-from quadpipe.quantities.units import scale_for_animals
+from quadpipe.controllers.runtime.kernel import HEADING_MIN_NORM, INTEGER_ARRAYS, REAL_ARRAYS, pack, run
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
+from quadpipe.quantities.units import scale_for_animals
 from quadpipe.world.placement import Placement
 
 WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
@@ -100,7 +101,9 @@ class ControllerRuntime:
         self._few_contacts = (np.zeros((1, 4), np.int32)[:, ::2], np.zeros((1, 18))[:, ::2])
         heights = self.program.heights
         self._height_registers = [register for register, _ in heights]
-        self._height_bodies = np.array([self._body_of(point) for _, point in heights], dtype=np.int64).reshape(-1, self.n)
+        self._height_bodies = np.array([self._body_of(point) for _, point in heights], dtype=np.int64).reshape(
+            -1, self.n
+        )
         self._height_offsets = np.array([self._offsets[point] for _, point in heights]).reshape(-1, self.n, 3)
         self._ray_hit = np.zeros(1, dtype=np.int32)
 
@@ -110,7 +113,9 @@ class ControllerRuntime:
         """Canonical point `role.anchor` -> offset in the role's body frame, (n, 3)."""
         offsets = {}
         for role in ROLES:
-            vectors = np.array([p.built.animal.skeleton[role].end - p.built.animal.skeleton[role].start for p in self.placements])
+            vectors = np.array(
+                [p.built.animal.skeleton[role].end - p.built.animal.skeleton[role].start for p in self.placements]
+            )
             offsets[f"{role}.start"] = np.zeros((self.n, 3))
             offsets[f"{role}.end"] = vectors
             offsets[f"{role}.mid"] = vectors / 2.0
@@ -136,7 +141,9 @@ class ControllerRuntime:
         return {
             "point_body": np.array([self._body_of(p) for p in program.points], dtype=np.int64).reshape(-1, self.n),
             "point_offset": np.array([self._offsets[p] for p in program.points]).reshape(-1, self.n, 3),
-            "frame_body": np.array([self._body_of(f"{role}.start") for role in program.frames], dtype=np.int64).reshape(-1, self.n),
+            "frame_body": np.array([self._body_of(f"{role}.start") for role in program.frames], dtype=np.int64).reshape(
+                -1, self.n
+            ),
             "leg_of_geom": leg_of_geom.astype(np.int64),
             "animal_of_geom": animal_of_geom.astype(np.int64),
             "heading_points": np.array([program.points.index(p) for p in HEADING_POINTS], dtype=np.int64),
@@ -144,7 +151,9 @@ class ControllerRuntime:
             "spring_dof": np.concatenate(dofs + [np.zeros((0, self.n), np.int64)]).astype(np.int64),
             "spring_qpos": np.concatenate(qpos + [np.zeros((0, self.n), np.int64)]).astype(np.int64),
             "spring_twist": np.concatenate(twist + [np.zeros((0, self.n), bool)]).astype(np.bool_),
-            "slot_body": np.array([self._body_of(point) for point, _ in program.slots], dtype=np.int64).reshape(-1, self.n),
+            "slot_body": np.array([self._body_of(point) for point, _ in program.slots], dtype=np.int64).reshape(
+                -1, self.n
+            ),
             "body_root": model.body_rootid.astype(np.int64),
             "base_damping": model.dof_damping.copy(),
         }
@@ -156,7 +165,10 @@ class ControllerRuntime:
             rows_d, rows_q, rows_t = [], [], []
             for role in roles:
                 for suffix in ("", "_swing1", "_swing2"):
-                    joints = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, f"{p.name}/{role}{suffix}") for p in self.placements]
+                    joints = [
+                        mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, f"{p.name}/{role}{suffix}")
+                        for p in self.placements
+                    ]
                     if min(joints) >= 0:
                         rows_d.append(self.model.jnt_dofadr[joints])
                         rows_q.append(self.model.jnt_qposadr[joints])
@@ -171,7 +183,9 @@ class ControllerRuntime:
         machines = self.compiled.machines
         return {
             "phase": np.zeros((len(program.cycles), self.n)),
-            "state": np.array([[names.index(machines[m].initial)] * self.n for m, names in program.machines.items()], dtype=np.int64).reshape(-1, self.n),
+            "state": np.array(
+                [[names.index(machines[m].initial)] * self.n for m, names in program.machines.items()], dtype=np.int64
+            ).reshape(-1, self.n),
             "time_in_state": np.zeros((len(program.machines), self.n)),
             "sensor_ready": np.zeros(len(program.sensors), dtype=np.bool_),
             "damping": np.zeros(self.model.nv),
@@ -302,7 +316,10 @@ class ControllerRuntime:
         if not self._arrays["sensor_ready"].all():
             self._run(data, self.program.sensor_end, finish=False)
         registers = self._registers
-        return {name: registers[r].copy() if vector else registers[r, :, 0].copy() for name, (r, vector) in self.program.sensors.items()}
+        return {
+            name: registers[r].copy() if vector else registers[r, :, 0].copy()
+            for name, (r, vector) in self.program.sensors.items()
+        }
 
     def frame_values(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
         """Values recorded once per frame into the clip, per animal: every sensor
@@ -322,7 +339,7 @@ class ControllerRuntime:
                 values[f"{name}:{placement.name}"] = value[index]
         return values
 
-    def adopt(self, previous: "ControllerRuntime") -> None:
+    def adopt(self, previous: ControllerRuntime) -> None:
         """Take over the running state of the runtime this one replaces (a hot reload).
 
         Cycle phases, machine states (with their time in state) and smoothed sensor values are
