@@ -8,6 +8,7 @@ docs/architecture.md draws the same picture.
 from __future__ import annotations
 
 import ast
+import re
 from functools import cache
 from pathlib import Path
 
@@ -122,3 +123,13 @@ def test_every_module_is_in_a_layer_and_not_too_long() -> None:
     for name in modules():
         layer_of(name)
     assert not too_long, f"modules over {MAX_MODULE_LINES} lines, split them: {too_long}"
+
+
+def test_the_architecture_page_draws_the_same_layers() -> None:
+    """docs/architecture.md's picture: each layer's line names every subpackage of that layer."""
+    page = (PACKAGE.parent / "docs" / "architecture.md").read_text()
+    picture = page.split("## Layers", 1)[1].split("```")[1]
+    lines = {int(m.group(1)): m.group(2) for m in re.finditer(r"^\s*(\d+)\s{2}(.+)$", picture, flags=re.M)}
+    for package, layer in LAYERS.items():
+        short = package.removeprefix("quadpipe.") if package != "quadpipe" else "quadpipe"
+        assert short in lines.get(layer, ""), f"docs/architecture.md does not draw {short} on layer {layer}"
