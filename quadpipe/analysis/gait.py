@@ -108,9 +108,13 @@ def _analyze_track(clip: Clip, track: AnimalTrack) -> AnimalGait:
 def _leg_gait(
     leg: str, footfalls: tuple[Footfall, ...], contact: np.ndarray, strides: np.ndarray, fps: float
 ) -> LegGait:
-    complete = [f for f in footfalls if f.slip_m is not None]
-    stance = float(np.mean([f.liftoff_frame - f.touchdown_frame for f in complete])) / fps if complete else None
-    slip = float(np.mean([f.slip_m for f in complete])) if complete else None
+    complete = [
+        (f.liftoff_frame - f.touchdown_frame, f.slip_m)
+        for f in footfalls
+        if f.touchdown_frame is not None and f.liftoff_frame is not None and f.slip_m is not None
+    ]
+    stance = float(np.mean([frames for frames, _ in complete])) / fps if complete else None
+    slip = float(np.mean([slip_m for _, slip_m in complete])) if complete else None
     duty = phase = spread = None
     if len(strides):
         duty = float(contact[strides[0] : strides[-1]].mean())
@@ -180,7 +184,8 @@ def classify_gait(phases: dict[str, float | None], duty: float) -> Gait:
     missing = [leg for leg in roles.LEGS if phases[leg] is None]
     if missing:
         return Gait("irregular", None, f"{', '.join(missing).upper()} make no footfall inside the reference strides")
-    lf, rf, lh, rh = (float(phases[leg]) for leg in roles.LEGS)  # type: ignore[arg-type]
+    # every phase is known here (a missing one returned above)
+    lf, rf, lh, rh = (float(phase) for phase in (phases[leg] for leg in roles.LEGS) if phase is not None)
     hind, fore = phase_distance(rh, lh), phase_distance(rf, lf)
     figures = f"diagonality {lf:.2f}, hind pair {hind:.2f} apart, fore pair {fore:.2f} apart, duty {duty:.2f}"
     together = IN_PHASE_TOLERANCE

@@ -74,7 +74,7 @@ class JointLimits:
         if missing:
             kinds = dict.fromkeys(kind_of(role) for role in missing)
             raise QuadpipeError([self._missing([r for r in missing if kind_of(r) == k]).issues[0] for k in kinds])
-        return {role: self.rows[self.row_for(role)] for role in roles}
+        return {role: self.for_role(role) for role in roles}
 
     def _missing(self, roles: list[str]) -> QuadpipeError:
         kind = kind_of(roles[0])

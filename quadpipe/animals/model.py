@@ -132,7 +132,8 @@ def clamped_radii(bones: dict[str, Bone], radius: float) -> dict[str, float]:
     """Per-bone radius: the uniform radius, never larger than the bone's or a neighbour's length."""
     radii = {}
     for role, bone in bones.items():
-        neighbours = [roles.PARENT[role]] if roles.PARENT[role] else []
+        parent = roles.PARENT[role]
+        neighbours = [parent] if parent else []
         neighbours += list(roles.CHILDREN[role])
         lengths = [bone.length] + [bones[n].length for n in neighbours]
         radii[role] = min(radius, *lengths)

@@ -102,7 +102,8 @@ def expand_jobs(plan: BatchPlan) -> list[Job]:
 
 def _job(plan: BatchPlan, folder: str, animal: str, controller: str, scene: str) -> Job:
     """One job of the plan, its overrides applied in order."""
-    seconds, parameters = plan.seconds, {}
+    seconds = plan.seconds
+    parameters: dict[str, Any] = {}
     for override in plan.overrides:
         if override.selects(label(animal), label(controller), label(scene)):
             seconds = override.seconds or seconds

@@ -61,9 +61,12 @@ def run_batch(
     results = {job.name: skipped_result(job) for job in jobs if job.name in done}
     with ProgressDisplay(jobs, done=len(results), enabled=progress) as display:
         if todo:
-            run = _run_on_dask if scheduler else _run_locally
-            target = scheduler if scheduler else _worker_count(workers, len(todo))
-            for result in run(todo, target, display):
+            finished = (
+                _run_on_dask(todo, scheduler, display)
+                if scheduler
+                else _run_locally(todo, _worker_count(workers, len(todo)), display)
+            )
+            for result in finished:
                 results[result.job.name] = result
     return BatchReport([results[job.name] for job in jobs])
 

@@ -17,6 +17,7 @@ from typing import Any, TypeVar
 
 import pydantic
 import yaml
+from pydantic_core import ErrorDetails
 
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 
@@ -165,11 +166,11 @@ def located_issues(
     return [_issue_from_pydantic(err, model, doc, prefix) for err in without_missing_explained_by_typos(exc.errors())]
 
 
-def without_missing_explained_by_typos(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def without_missing_explained_by_typos(errors: list[ErrorDetails]) -> list[ErrorDetails]:
     """Drop "missing key X" when a misspelt key beside it is close to X: one typo, one message."""
     unknown = {tuple(e["loc"]) for e in errors if e["type"] == "extra_forbidden"}
 
-    def explained(err: dict[str, Any]) -> bool:
+    def explained(err: ErrorDetails) -> bool:
         loc = tuple(err["loc"])
         siblings = [str(u[-1]) for u in unknown if u[:-1] == loc[:-1]]
         return err["type"] == "missing" and bool(difflib.get_close_matches(str(loc[-1]), siblings, n=1, cutoff=0.6))
@@ -183,7 +184,7 @@ def dotted(path: Iterable[Any]) -> str:
 
 
 def _issue_from_pydantic(
-    err: dict[str, Any], model: type[pydantic.BaseModel], doc: YamlDocument, prefix: PathKey
+    err: ErrorDetails, model: type[pydantic.BaseModel], doc: YamlDocument, prefix: PathKey
 ) -> Issue:
     loc = tuple(err["loc"])
     path = prefix + loc

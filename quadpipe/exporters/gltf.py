@@ -191,9 +191,9 @@ def _add_animal(doc: _Document, track: AnimalTrack, prefix: str) -> None:
         doc.node(node, root=track.parents[index] < 0)
 
     translations, rotations = local_poses(track)
-    for index, node in enumerate(joints):
-        doc.animate(node, "translation", to_y_up(translations[:, index]))
-        doc.animate(node, "rotation", _xyzw(quat_to_y_up(rotations[:, index])))
+    for index, joint in enumerate(joints):
+        doc.animate(joint, "translation", to_y_up(translations[:, index]))
+        doc.animate(joint, "rotation", _xyzw(quat_to_y_up(rotations[:, index])))
 
     bones = [index for index, shapes in enumerate(track.shapes) if shapes]
     if not bones:

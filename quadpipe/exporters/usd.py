@@ -33,7 +33,7 @@ from quadpipe.core.atomic import atomic_path
 from quadpipe.core.version import __version__
 
 if TYPE_CHECKING:
-    from pxr import Usd, UsdGeom
+    from pxr import Usd, UsdGeom, UsdSkel, Vt
 
 WORLD = "/World"
 """The default prim."""
@@ -102,7 +102,7 @@ def _translation_matrices(translations: np.ndarray) -> list:
     return [Gf.Matrix4d(1.0).SetTranslate(Gf.Vec3d(*map(float, t))) for t in translations]
 
 
-def _quatf_array(quats: np.ndarray):
+def _quatf_array(quats: np.ndarray) -> Vt.QuatfArray:
     """(N, 4) quaternions (w, x, y, z) as a `Vt.QuatfArray`.
 
     GfQuatf stores its imaginary part first, so numpy data must be handed over as (x, y, z, w).
@@ -141,7 +141,7 @@ def _add_animal(stage: Usd.Stage, path: str, track: AnimalTrack) -> None:
             _bind_rigidly(_add_mesh(stage, f"{path}/meshes/{role}", mesh), skeleton, index)
 
 
-def _bind_rigidly(mesh: UsdGeom.Mesh, skeleton, joint: int) -> None:
+def _bind_rigidly(mesh: UsdGeom.Mesh, skeleton: UsdSkel.Skeleton, joint: int) -> None:
     """Skin a mesh wholly to one joint (constant joint influence, weight 1)."""
     from pxr import Gf, UsdSkel, Vt
 

@@ -63,6 +63,16 @@ class _Joint:
     end: Vector | None = None
     channels_seen: bool = False
 
+    def record(self) -> JointRecord:
+        """The joint as read, once parsed (the parser requires every joint's OFFSET)."""
+        assert self.position is not None, "`_Parser.joint` requires every joint's OFFSET"
+        return JointRecord(name=self.name, parent=self.parent, position=self.position, end=self.end, line=self.line)
+
+
+def _moved(point: Vector, offset: Vector) -> Vector:
+    """`point` moved by `offset`."""
+    return point[0] + offset[0], point[1] + offset[1], point[2] + offset[2]
+
 
 class _Parser:
     """Recursive-descent reader of the HIERARCHY section."""
@@ -127,7 +137,8 @@ class _Parser:
         return value
 
     def offset(self, inside: _Joint, what: str) -> Vector:
-        return tuple(self.number(self.take(inside), what) for _ in range(3))  # type: ignore[return-value]
+        x, y, z = (self.number(self.take(inside), what) for _ in range(3))
+        return x, y, z
 
     def parse(self) -> list[_Joint]:
         first = self.peek()
@@ -171,7 +182,7 @@ class _Parser:
                 break
             if keyword_text == "OFFSET":
                 offset = self.offset(joint, f"OFFSET of {joint.name!r}")
-                joint.position = tuple(o + d for o, d in zip(origin, offset))  # type: ignore[assignment]
+                joint.position = _moved(origin, offset)
             elif keyword_text == "CHANNELS":
                 self.channels(token, joint)
             elif keyword_text == "JOINT":
@@ -195,7 +206,8 @@ class _Parser:
                 )
         self.require_offset(token, joint)
 
-    def require_offset(self, token: _Token, joint: _Joint) -> None:
+    def require_offset(self, token: _Token, joint: _Joint) -> Vector:
+        """The joint's position; failing when its OFFSET has not been read yet."""
         if joint.position is None:
             self.fail(
                 token,
@@ -203,6 +215,7 @@ class _Parser:
                 f"joint {joint.name!r} has no OFFSET before this point",
                 "write OFFSET x y z right after the joint's '{'",
             )
+        return joint.position
 
     def channels(self, keyword: _Token, joint: _Joint) -> None:
         if joint.channels_seen:
@@ -237,7 +250,7 @@ class _Parser:
                 )
 
     def end_site(self, keyword: _Token, joint: _Joint) -> None:
-        self.require_offset(keyword, joint)
+        position = self.require_offset(keyword, joint)
         site = self.take(joint)
         if site.text.upper() != "SITE" or site.line != keyword.line:
             self.fail(keyword, "bvh-syntax", "expected 'End Site'")
@@ -254,7 +267,7 @@ class _Parser:
                 f"expected OFFSET in the End Site of {joint.name!r}, found {offset_token.text!r}",
             )
         offset = self.offset(joint, f"End Site of {joint.name!r}")
-        joint.end = tuple(p + d for p, d in zip(joint.position, offset))  # type: ignore[arg-type, assignment]
+        joint.end = _moved(position, offset)
         closing = self.take(joint)
         if closing.text != "}":
             self.fail(
@@ -278,8 +291,5 @@ def read_skeleton(path: str | Path) -> RawSkeleton:
     except OSError as exc:
         raise QuadpipeError.single("file-unreadable", f"cannot read {path}: {exc.strerror}", file=str(path)) from None
     joints = _Parser(str(path), text).parse()
-    records = tuple(
-        JointRecord(name=j.name, parent=j.parent, position=j.position, end=j.end, line=j.line)  # type: ignore[arg-type]
-        for j in joints
-    )
+    records = tuple(j.record() for j in joints)
     return RawSkeleton(name=path.name.split(".")[0], source=str(path), joints=records, units="cm", up="y")

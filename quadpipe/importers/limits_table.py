@@ -61,15 +61,17 @@ def read_limits(path: str | Path) -> JointLimits:
         )
     index = {c: columns.index(c) for c in COLUMNS}
     limits: dict[str, JointLimit] = {}
+    first_lines: dict[str, int] = {}
     for line, cells in rows[1:]:
         bone = cells[index["bone"]].strip() if len(cells) > index["bone"] else ""
         where = Location(source, line, 1)
         if bone in limits:
             raise QuadpipeError.single(
-                "duplicate-row", f"bone {bone!r} has two rows (first at line {limits[bone].where.line})", where=where
+                "duplicate-row", f"bone {bone!r} has two rows (first at line {first_lines[bone]})", where=where
             )
-        values = [_number(cells, index[c], c, source, line, bone) for c in COLUMNS[1:]]
-        limits[bone] = from_degrees(*values, where=where)
+        twist_min, twist_max, swing1, swing2 = (_number(cells, index[c], c, source, line, bone) for c in COLUMNS[1:])
+        limits[bone] = from_degrees(twist_min, twist_max, swing1, swing2, where=where)
+        first_lines[bone] = line
     return JointLimits(limits, source)
 
 

@@ -14,6 +14,7 @@ axis of the limits table), `end` the far end of a leaf bone.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NoReturn
 from xml.parsers import expat
 
 from quadpipe.anatomy.skeleton import UNIT_TO_METRES, UP_AXES, JointRecord, RawSkeleton
@@ -101,7 +102,8 @@ def _vector(source: str, line: int, column: int, attrs: dict[str, str], key: str
         values = ()
     if len(values) != 3 or any(v != v for v in values):
         _fail(source, line, column, "bad-vector", f"{key}={text!r} is not three numbers", 'write it as "x y z"')
-    return values  # type: ignore[return-value]
+    x, y, z = values
+    return x, y, z
 
 
 def _check_attributes(source: str, tag: str, attrs: dict[str, str], allowed: set[str], line: int, column: int) -> None:
@@ -117,5 +119,5 @@ def _check_attributes(source: str, tag: str, attrs: dict[str, str], allowed: set
             )
 
 
-def _fail(source: str, line: int, column: int, code: str, message: str, hint: str | None = None) -> None:
+def _fail(source: str, line: int, column: int, code: str, message: str, hint: str | None = None) -> NoReturn:
     raise QuadpipeError.single(code, message, file=source, line=line, column=column, hint=hint)

@@ -4,10 +4,21 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Callable, Sequence
+from typing import ParamSpec
 
 import numpy as np
 
 from quadpipe.preview.clock import SLOW_MOTION_RATE, Clock
+
+P = ParamSpec("P")
+
+ActionHandler = Callable[[np.ndarray | None], object]
+"""An action: takes the camera's eye position (or None); what it returns is ignored."""
+
+
+def ignoring_eye(action: Callable[P, object], *args: P.args, **kwargs: P.kwargs) -> ActionHandler:
+    """An action handler that calls `action(*args, **kwargs)`, whatever the eye position."""
+    return lambda eye: action(*args, **kwargs)
 
 
 class Preview(abc.ABC):
@@ -27,19 +38,19 @@ class Preview(abc.ABC):
 
     # -------------------------------------------------------------- actions
 
-    def actions(self) -> dict[str, tuple[str, Callable[[np.ndarray | None], None]]]:
+    def actions(self) -> dict[str, tuple[str, ActionHandler]]:
         """Action name -> (what it does, handler taking the camera's eye position or None)."""
-        actions = {
+        actions: dict[str, tuple[str, ActionHandler]] = {
             "pause": ("pause / run", lambda eye: self.clock.toggle_pause()),
             "step": ("pause and step one frame", lambda eye: self.clock.step()),
             "reset": ("back to the start", lambda eye: self.reset()),
             "slow_motion": (f"slow motion x{SLOW_MOTION_RATE:g} on / off", lambda eye: self.clock.toggle_slow_motion()),
         }
         for name in self.overlay_names:
-            actions[f"toggle_{name}"] = (f"show / hide the {name}", lambda eye, name=name: self.toggle_overlay(name))
+            actions[f"toggle_{name}"] = (f"show / hide the {name}", ignoring_eye(self.toggle_overlay, name))
         return actions
 
-    def perform(self, action: str, eye: Sequence[float] | None = None) -> None:
+    def perform(self, action: str, eye: np.ndarray | Sequence[float] | None = None) -> None:
         """Run a named action; `eye` is the camera position (used by throws).
 
         Raises:

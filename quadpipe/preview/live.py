@@ -12,7 +12,7 @@ controller's goal, and force the states of its state machines.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -23,7 +23,7 @@ import numpy as np
 from quadpipe.animals import sizing
 from quadpipe.core import configs
 from quadpipe.core.errors import QuadpipeError
-from quadpipe.preview.base import Preview
+from quadpipe.preview.base import ActionHandler, Preview, ignoring_eye
 from quadpipe.preview.clock import Clock
 from quadpipe.preview.overlays import (
     LIVE_OVERLAYS,
@@ -203,7 +203,9 @@ class LivePreview(Preview):
     @property
     def runtime(self) -> ControllerRuntime:
         """The controller runtime now driving the animals."""
-        return self.world.sim.runtime
+        runtime = self.world.sim.runtime
+        assert runtime is not None, "a live preview always drives its animals with a compiled controller"
+        return runtime
 
     @property
     def model(self) -> mujoco.MjModel:
@@ -317,7 +319,7 @@ class LivePreview(Preview):
 
     # -------------------------------------------------------------- actions
 
-    def actions(self) -> dict[str, tuple[str, Callable[[np.ndarray | None], None]]]:
+    def actions(self) -> dict[str, tuple[str, ActionHandler]]:
         """Clock and overlay actions, throws, goal moves and state switches (see `Preview.actions`)."""
         actions = super().actions()
         actions["throw_ball"] = ("throw a ball at the animal from the camera", lambda eye: self.throw("ball", eye))
@@ -330,12 +332,12 @@ class LivePreview(Preview):
         }.items():
             actions[name] = (
                 f"move the goal {GOAL_STEP_HP:g} HP {name[5:]}",
-                lambda eye, d=(dx, dy): self.nudge_goal(d),
+                ignoring_eye(self.nudge_goal, (dx, dy)),
             )
         for k in range(1, STATE_KEYS + 1):
             actions[f"state_{k}"] = (
                 f"force state {k} of the first state machine",
-                lambda eye, k=k: self.force_state_number(k),
+                ignoring_eye(self.force_state_number, k),
             )
         return actions
 
@@ -368,7 +370,7 @@ class LivePreview(Preview):
         except KeyError:
             return None
 
-    def move_goal(self, point: Sequence[float]) -> bool:
+    def move_goal(self, point: np.ndarray | Sequence[float]) -> bool:
         """Set the goal parameter to a fixed world point, recompiling the controller with it.
 
         Returns:

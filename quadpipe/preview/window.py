@@ -133,8 +133,8 @@ def checker_plane(shape: Shape, hp: float) -> TriangleMesh:
     counts = [max(1, math.ceil(2 * h / tile)) for h in half]
     xs = np.linspace(-half[0], half[0], counts[0] + 1)
     ys = np.linspace(-half[1], half[1], counts[1] + 1)
-    i, j = np.meshgrid(np.arange(counts[0]), np.arange(counts[1]), indexing="ij")
-    i, j = i.ravel(), j.ravel()
+    grid_i, grid_j = np.meshgrid(np.arange(counts[0]), np.arange(counts[1]), indexing="ij")
+    i, j = grid_i.ravel(), grid_j.ravel()
     corners = np.stack(
         [
             np.stack([xs[i], ys[j]], axis=1),

@@ -95,6 +95,7 @@ class _Checker:
         return method(node)
 
     def _constant(self, node: ast.Constant) -> Expr:
+        assert isinstance(node.value, (int, float)), "parsing lets only numbers appear literally"
         return Expr("num", NUMBER, value=float(node.value))
 
     def _name(self, node: ast.Name) -> Expr:

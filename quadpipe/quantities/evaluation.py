@@ -139,6 +139,7 @@ def _build_call(expr: Expr, args: list[Callable], types: list[Type], scale: unit
         reference = units.STANDARD_GRAVITY * scale.hp
         return lambda env: np.sqrt(np.maximum(froude(env), 0.0) * reference)
     impl = FUNCTIONS[name].impl
+    assert impl is not None, f"{name}() has no plain implementation but is not compiled specially above"
     return lambda env: impl(*(arg(env) for arg in args))
 
 

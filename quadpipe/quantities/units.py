@@ -60,7 +60,8 @@ class Dim:
 
     def si_text(self) -> str:
         """The SI unit of this dimension, as text: `kg*m/s^2`."""
-        up, down = [], []
+        up: list[str] = []
+        down: list[str] = []
         for symbol, exponent in zip(BASE_SYMBOLS, self.exponents):
             if exponent:
                 target = up if exponent > 0 else down

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import importlib
 import os
+from typing import Protocol
 
 from quadpipe.core.errors import QuadpipeError
 
@@ -23,6 +24,16 @@ DEFAULT_GL_BACKEND = "egl"
 
 GL_BACKENDS = ("egl", "osmesa", "glfw")
 """Backends quadpipe can open a context with (`glfw` needs a display)."""
+
+
+class GLContext(Protocol):
+    """What quadpipe uses of a MuJoCo `GLContext` (the egl, osmesa and glfw ones alike)."""
+
+    def make_current(self) -> None:
+        """Make it the thread's current OpenGL context."""
+
+    def free(self) -> None:
+        """Release it."""
 
 
 def gl_backend() -> str:
@@ -47,7 +58,7 @@ if GL_VARIABLE not in os.environ or not os.environ[GL_VARIABLE].strip():
     os.environ[GL_VARIABLE] = DEFAULT_GL_BACKEND
 
 
-def open_gl_context(width: int, height: int):
+def open_gl_context(width: int, height: int) -> GLContext:
     """An OpenGL context of the chosen backend, made current.
 
     Raises:

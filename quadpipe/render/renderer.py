@@ -17,7 +17,7 @@ from quadpipe.clip.model import Clip
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.render.camera import Camera, camera_views
 from quadpipe.render.display import SUN_DIRECTION, SUN_DISTANCE_HP, VIDEO_MULTISAMPLES, display_spec
-from quadpipe.render.gl import open_gl_context
+from quadpipe.render.gl import GLContext, open_gl_context
 from quadpipe.render.overlays import Overlay, builtin_overlays, draw_overlay
 from quadpipe.render.poses import check_clip, clip_scale, mocap_poses
 
@@ -75,7 +75,7 @@ class ClipRenderer:
         self._sun_offset = -_unit(SUN_DIRECTION) * SUN_DISTANCE_HP * clip_scale(clip)
         self.model = display_spec(clip, width, height, multisamples).compile()
         self.data = mujoco.MjData(self.model)
-        self._gl = open_gl_context(width, height)
+        self._gl: GLContext | None = open_gl_context(width, height)
         self._mjr = mujoco.MjrContext(self.model, FONT_SCALE)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._mjr)
         capacity = self.model.ngeom + sum(overlay.starts.shape[1] for overlay in self.overlays)
@@ -89,7 +89,7 @@ class ClipRenderer:
     def __enter__(self) -> ClipRenderer:
         return self
 
-    def __exit__(self, *_exc) -> None:
+    def __exit__(self, *_exc: object) -> None:
         self.close()
 
     def close(self) -> None:
@@ -120,6 +120,7 @@ class ClipRenderer:
         _keep_planes_out_of_shadow_map(self.scene)
         for overlay in self.overlays:
             draw_overlay(self.scene, overlay, frame)
+        assert self._gl is not None, "render() after close()"
         self._gl.make_current()
         mujoco.mjr_render(self._viewport, self.scene, self._mjr)
         mujoco.mjr_readPixels(self._pixels, None, self._viewport, self._mjr)
@@ -140,8 +141,8 @@ def check_size(width: int, height: int) -> None:
 
 
 def _unit(vector: Sequence[float]) -> np.ndarray:
-    vector = np.asarray(vector, dtype=float)
-    return vector / np.linalg.norm(vector)
+    array = np.asarray(vector, dtype=float)
+    return array / np.linalg.norm(array)
 
 
 def _keep_planes_out_of_shadow_map(scene: mujoco.MjvScene) -> None:

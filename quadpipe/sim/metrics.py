@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 from quadpipe.animals import sizing
-from quadpipe.clip.model import Clip
+from quadpipe.clip.model import AnimalTrack, Clip
 
 FALL_HEIGHT_HP = 0.4
 """An animal whose pelvis drops below this many pelvis heights has fallen."""
 
 
-def _injected(clip: Clip, track) -> dict:
+def _injected(clip: Clip, track: AnimalTrack) -> dict[str, float]:
     """Net external force and work the controller injected (couples cancel; pulls do not)."""
     force = clip.sensors.get(f"controller_force:{track.name}")
     power = clip.sensors.get(f"controller_power:{track.name}")

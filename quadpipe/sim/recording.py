@@ -8,10 +8,10 @@ import mujoco
 import numpy as np
 
 from quadpipe.anatomy.roles import FOOT_BONES, LEGS, PARENT, ROLES
-from quadpipe.clip.model import AnimalTrack, Clip, PropTrack, Shape
+from quadpipe.clip.model import AnimalTrack, Clip, PropTrack, Shape, ShapeKind
 from quadpipe.world.placement import Placement
 
-_SHAPE_KINDS = {
+_SHAPE_KINDS: dict[int, ShapeKind] = {
     int(mujoco.mjtGeom.mjGEOM_CAPSULE): "capsule",
     int(mujoco.mjtGeom.mjGEOM_BOX): "box",
     int(mujoco.mjtGeom.mjGEOM_SPHERE): "sphere",
@@ -26,12 +26,24 @@ def geom_shape(model: mujoco.MjModel, geom: int) -> Shape:
     if kind is None:
         raise ValueError(f"geom {model.geom(geom).name!r} has a type clips cannot carry")
     return Shape(
-        kind=kind,  # type: ignore[arg-type]
+        kind=kind,
         size=tuple(float(v) for v in model.geom_size[geom][: _SHAPE_SIZES[kind]]),
-        pos=tuple(float(v) for v in model.geom_pos[geom]),
-        quat=tuple(float(v) for v in model.geom_quat[geom]),
-        rgba=tuple(float(v) for v in model.geom_rgba[geom]),
+        pos=_triple(model.geom_pos[geom]),
+        quat=_quadruple(model.geom_quat[geom]),
+        rgba=_quadruple(model.geom_rgba[geom]),
     )
+
+
+def _triple(values: np.ndarray) -> tuple[float, float, float]:
+    """Three numbers (a position) as plain floats."""
+    x, y, z = (float(v) for v in values)
+    return x, y, z
+
+
+def _quadruple(values: np.ndarray) -> tuple[float, float, float, float]:
+    """Four numbers (a quaternion, a colour) as plain floats."""
+    a, b, c, d = (float(v) for v in values)
+    return a, b, c, d
 
 
 class Recorder:
@@ -113,7 +125,9 @@ class Recorder:
         sensors = {key: np.array(values) for key, values in self._extras.items()}
         return Clip(self.fps, animals, props, terrain, sensors=sensors, metadata=dict(metadata or {}))
 
-    def _animal_track(self, index, placement, positions, rotations, contacts) -> AnimalTrack:
+    def _animal_track(
+        self, index: int, placement: Placement, positions: np.ndarray, rotations: np.ndarray, contacts: np.ndarray
+    ) -> AnimalTrack:
         bones = self._bones[index]
         skeleton = placement.built.animal.skeleton
         offset = self.model.body_pos[bones[0]] - skeleton["pelvis"].start  # bind pose faces +x, see Clip

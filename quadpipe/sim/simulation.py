@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Protocol, overload
 
 import mujoco
 import numpy as np
@@ -183,6 +183,10 @@ class Simulation:
         offered = self.setup.goal_parameters | dict(goals or {})
         return compile_for(controller, self.placements, parameters, scene_parameters=offered)
 
+    @overload
+    def use_controller(self, compiled: CompiledController, *, carry_over: bool = False) -> ControllerRuntime: ...
+    @overload
+    def use_controller(self, compiled: None, *, carry_over: bool = False) -> None: ...
     def use_controller(
         self, compiled: CompiledController | None, *, carry_over: bool = False
     ) -> ControllerRuntime | None:

@@ -105,7 +105,7 @@ def build_scene(scene: SceneSpec, species: Sequence[BuiltAnimal] | BuiltAnimal) 
     values = Values(scene, units.Scale.of(hp, first.mass_kg))
     placements = [_placement(values, scene, slot) for slot in slots]
     ground = scene.file.ground
-    friction = (ground or Ground()).friction
+    friction = (ground or Ground.model_validate({})).friction
     spec = world_spec(
         scene.name, [placement.built for placement in placements], friction if ground is not None else None
     )
@@ -123,7 +123,7 @@ def build_scene(scene: SceneSpec, species: Sequence[BuiltAnimal] | BuiltAnimal) 
 
 def _slots(scene: SceneSpec, species: Sequence[BuiltAnimal] | BuiltAnimal) -> list[_Slot]:
     """The scene's animals in order, grids expanded, each with its model."""
-    given = list(species) if isinstance(species, (list, tuple)) else [species]
+    given = [species] if isinstance(species, BuiltAnimal) else list(species)
     items = scene.file.animals
     needed = 1 if items is None else sum(len(entry_names(item)) for item in items if item.species is None)
     if needed and len(given) not in (1, needed):
@@ -166,6 +166,7 @@ def _placement(values: Values, scene: SceneSpec, slot: _Slot) -> Placement:
     if slot.index is None:
         return Placement(slot.name, slot.built, (0.0, 0.0), 0.0)
     base = ("animals", slot.index)
+    assert scene.file.animals is not None, "a slot with an index comes from the scene's `animals`"
     item = scene.file.animals[slot.index]
     x, y = values.items(base + ("at",), 2)
     if isinstance(item, AnimalGrid):

@@ -409,7 +409,7 @@ AnimalItem = Annotated[
 ]
 
 
-Waypoint = tuple[Value, quantity(POINT)]
+Waypoint = tuple[Value, quantity(POINT)]  # type: ignore[misc]  # a pydantic field type built by a call
 
 
 class Goal(_Model):

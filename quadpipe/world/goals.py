@@ -20,6 +20,7 @@ def goal_text(scene: SceneSpec, values: Values, name: str) -> str:
     base = ("goals", name)
     if goal.point is not None:
         return vector_text(values[base + ("point",)])
+    assert goal.path is not None, "a goal has a point or a path (`Goal._one_kind`)"
     path = base + ("path",)
     waypoints = [(values[path + (i, 0)], values[path + (i, 1)]) for i in range(len(goal.path))]
     for i, ((before, _), (after, _)) in enumerate(zip(waypoints, waypoints[1:]), start=1):

@@ -98,7 +98,7 @@ def plan_throws(scene: SceneSpec, values: Values, names: list[str], gravity: flo
             shots = [
                 (values[base + ("at",)], values[base + ("mass",)], values[base + ("speed",)], from_vector(item.from_))
             ]
-            speed_path = base + ("speed",)
+            speed_path: tuple[Any, ...] = base + ("speed",)
         else:
             shots = random_shots(item.random, values, base + ("random",))
             speed_path = base + ("random", "speed")

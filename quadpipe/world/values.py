@@ -58,7 +58,9 @@ class Values:
 def _evaluate(value: Any, expect: Expect, scale: units.Scale) -> Any:
     if is_zero(value):
         return np.zeros(3) if expect.kind == VECTOR else 0.0
-    result = compile_quantity(value, scale, expect).constant[0]
+    constant = compile_quantity(value, scale, expect).constant
+    assert constant is not None, "loading refuses scene values that read the simulation (`not-constant`)"
+    result = constant[0]
     return np.array(result, dtype=float) if expect.kind == VECTOR else float(result)
 
 

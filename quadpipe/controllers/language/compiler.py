@@ -134,7 +134,7 @@ def compile_element(element: Any, namespace: expressions.Namespace, scale: Scale
                     expressions.check_expected(item, marker.expect, local), scale
                 )
     if isinstance(element, schema.Segment) and element.strength is not None:
-        values[("strength",)] = _segment_strength(element, values, local, scale)
+        values[("strength",)] = _segment_strength(element.strength, values, local, scale)
         values.pop(("strength", "force"), None)
         values.pop(("strength", "length2"), None)
     if isinstance(element, schema.ForcePair):
@@ -143,11 +143,14 @@ def compile_element(element: Any, namespace: expressions.Namespace, scale: Scale
 
 
 def _segment_strength(
-    element: schema.Segment, values: Mapping[Path, expressions.Compiled], namespace: expressions.Namespace, scale: Scale
+    strength: schema.Strength,
+    values: Mapping[Path, expressions.Compiled],
+    namespace: expressions.Namespace,
+    scale: Scale,
 ) -> expressions.Compiled:
-    if element.strength.force is not None:
+    if strength.force is not None:
         return values[("strength", "force")]
-    factor = expressions.check_expected(element.strength.length2, schema.LENGTH2_FACTOR, namespace)
+    factor = expressions.check_expected(strength.length2, schema.LENGTH2_FACTOR, namespace)
     rest = namespace.locals["rest"]
     force = expressions.Expr(
         "mul",
@@ -155,16 +158,23 @@ def _segment_strength(
         (factor, expressions.Expr("mul", expressions.Type(expressions.SCALAR, LENGTH**2), (rest, rest))),
     )
     return expressions.compile_expr(
-        expressions.Expr(force.op, force.type, force.args, text=f"({element.strength.length2}) x rest²"), scale
+        expressions.Expr(force.op, force.type, force.args, text=f"({strength.length2}) x rest²"), scale
     )
 
 
 def _normalise_weights(values: dict[Path, expressions.Compiled], points: tuple[str, ...]) -> None:
     keys = [("reaction", point) for point in points]
-    total = sum(values[key].constant for key in keys)
+    constants = {key: _plain_number(values[key]) for key in keys}
+    total = sum(constants.values())
     for key in keys:
         weight = values[key]
-        values[key] = _constant(weight.constant / total, weight.type, f"{weight.text} (normalised)")
+        values[key] = _constant(constants[key] / total, weight.type, f"{weight.text} (normalised)")
+
+
+def _plain_number(compiled: expressions.Compiled) -> np.ndarray:
+    """The value of a compiled plain number (the element checks allow only those as reaction weights)."""
+    assert compiled.constant is not None, "a plain number compiles to a constant"
+    return compiled.constant
 
 
 def compile_controller(spec: ControllerSpec, scale: Scale) -> CompiledController:

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import pydantic
+from pydantic_core import ErrorDetails
 
 from quadpipe.anatomy import roles
 from quadpipe.controllers.language.entries import ElementEntry, Layer, MergedController, ParameterEntry
@@ -87,7 +88,7 @@ def pydantic_issues(
 
 
 def _yaml_boolean_issue(
-    err: dict[str, Any], loc: tuple[Any, ...], label: str, locate: Callable[[tuple[Any, ...], bool], Location]
+    err: ErrorDetails, loc: tuple[Any, ...], label: str, locate: Callable[[tuple[Any, ...], bool], Location]
 ) -> Issue:
     """YAML 1.1 reads yes/no/on/off/true/false as booleans; say so where a name was meant."""
     if loc and loc[-1] == "[key]":

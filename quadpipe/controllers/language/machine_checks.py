@@ -70,10 +70,11 @@ class MachineChecks(ElementChecks):
         built = {
             state_name: self._state(state_name, state, entry, typing_, failed) for state_name, state in states.items()
         }
-        if not ok or any(state is None for state in built.values()):
+        checked = {state_name: state for state_name, state in built.items() if state is not None}
+        if not ok or len(checked) < len(built):
             return None
-        owned = sorted({element for state in built.values() for element in state.elements})
-        return MachineSpec(name, model.initial, built, tuple(transitions), tuple(owned))
+        owned = sorted({element for state in checked.values() for element in state.elements})
+        return MachineSpec(name, model.initial, checked, tuple(transitions), tuple(owned))
 
     def _state(
         self, state_name: str, state: schema.State, entry: ElementEntry, typing_: ParameterTyping, failed: set[str]

@@ -151,15 +151,21 @@ def _section(title: str, body: str) -> str:
     return f"### {title}\n\n{body}\n"
 
 
+def _docstring(model: type) -> str:
+    """A model's docstring, stripped: the reference's text for it."""
+    assert model.__doc__ is not None, f"{model.__name__} needs a docstring for the reference"
+    return model.__doc__.strip()
+
+
 def _elements_section() -> str:
     parts = []
     for model, type_name in zip(ELEMENT_TYPES, ELEMENT_TYPE_NAMES):
-        parts.append(f"#### `{type_name}`\n\n{model.__doc__.strip()}\n\n{model_table(model)}")
+        parts.append(f"#### `{type_name}`\n\n{_docstring(model)}\n\n{model_table(model)}")
     return "### Elements\n\nEvery element has a `type` and a unique `name`.\n\n" + "\n".join(parts)
 
 
 def _parts_section() -> str:
-    parts = [f"#### {model.__name__}\n\n{model.__doc__.strip()}\n\n{model_table(model)}" for model in PARTS]
+    parts = [f"#### {model.__name__}\n\n{_docstring(model)}\n\n{model_table(model)}" for model in PARTS]
     return "### Parts\n\n" + "\n".join(parts)
 
 
@@ -231,7 +237,7 @@ def reference_markdown() -> str:
     return "\n".join(
         [
             "## Reference\n",
-            _section("File keys", f"{ControllerFile.__doc__.strip()}\n\n{model_table(ControllerFile)}"),
+            _section("File keys", f"{_docstring(ControllerFile)}\n\n{model_table(ControllerFile)}"),
             _elements_section(),
             _parts_section(),
             _section("Sensor kinds", _sensor_table()),

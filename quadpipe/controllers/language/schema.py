@@ -11,7 +11,7 @@ reference in `docs/controllers.md`, so every key's `description` is user documen
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal, Union, get_args
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, PlainValidator, WithJsonSchema
 
@@ -494,7 +494,7 @@ ELEMENT_TYPES: tuple[type[_Element], ...] = (Spring, Segment, ForcePair, Pull, C
 """Every element model, in the order the reference documents them."""
 
 ELEMENT_TYPE_NAMES: tuple[str, ...] = tuple(
-    model.model_fields["type"].annotation.__args__[0] for model in ELEMENT_TYPES
+    get_args(model.model_fields["type"].annotation)[0] for model in ELEMENT_TYPES
 )
 
 FORCE_ELEMENT_TYPES: tuple[str, ...] = ("spring", "segment", "force_pair", "pull", "cycle")

@@ -189,8 +189,8 @@ class _Analysis(MachineChecks):
             self._bound(name, end, bound, expr.type, namespace)
             for end, bound in (("min", entry.low), ("max", entry.high))
         )
-        if low is None or high is None:
-            return
+        if low is None or high is None or entry.low is None or entry.high is None:
+            return  # a missing end (`_bound` gives None for it) or a bad one, reported
         if low > high:
             self.error(
                 "bad-range",

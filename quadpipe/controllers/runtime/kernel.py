@@ -119,13 +119,13 @@ def pack(
         are 1); and a view of the buffer per name, shaped as the array given (writing into a
         view writes into the buffer the kernel reads).
     """
-    values = [np.asarray(arrays[name], dtype=dtype) for name in names]
+    values: list[np.ndarray] = [np.asarray(arrays[name], dtype=dtype) for name in names]
     layout = np.zeros((len(names), 4), dtype=np.int64)
     offset = 0
     for row, value in enumerate(values):
         layout[row] = (offset, *(value.shape + (1,) * (3 - value.ndim)))
         offset += value.size
-    buffer = np.zeros(offset, dtype=dtype)
+    buffer: np.ndarray = np.zeros(offset, dtype=dtype)
     views = {}
     for row, (name, value) in enumerate(zip(names, values)):
         views[name] = buffer[layout[row, 0] : layout[row, 0] + value.size].reshape(value.shape)
@@ -134,18 +134,18 @@ def pack(
 
 
 @numba.njit(cache=True)
-def _flat(buffer, layout, row):
+def _flat(buffer: np.ndarray, layout: np.ndarray, row: int) -> np.ndarray:
     return buffer[layout[row, 0] : layout[row, 0] + layout[row, 1]]
 
 
 @numba.njit(cache=True)
-def _matrix(buffer, layout, row):
+def _matrix(buffer: np.ndarray, layout: np.ndarray, row: int) -> np.ndarray:
     start = layout[row, 0]
     return buffer[start : start + layout[row, 1] * layout[row, 2]].reshape((layout[row, 1], layout[row, 2]))
 
 
 @numba.njit(cache=True)
-def _block(buffer, layout, row):
+def _block(buffer: np.ndarray, layout: np.ndarray, row: int) -> np.ndarray:
     start, d0, d1, d2 = layout[row, 0], layout[row, 1], layout[row, 2], layout[row, 3]
     return buffer[start : start + d0 * d1 * d2].reshape((d0, d1, d2))
 
@@ -261,7 +261,7 @@ def _unit_into(out: np.ndarray, x: float, y: float, z: float) -> None:
 
 
 @numba.njit(cache=True)
-def _point(xpos, xmat, body, offset, out) -> None:
+def _point(xpos: np.ndarray, xmat: np.ndarray, body: int, offset: np.ndarray, out: np.ndarray) -> None:
     for k in range(3):
         out[k] = (
             xpos[body, k]
@@ -272,7 +272,15 @@ def _point(xpos, xmat, body, offset, out) -> None:
 
 
 @numba.njit(cache=True)
-def _contacts(ncon, geoms, frames, leg_of_geom, animal_of_geom, contact, normals) -> None:
+def _contacts(
+    ncon: int,
+    geoms: np.ndarray,
+    frames: np.ndarray,
+    leg_of_geom: np.ndarray,
+    animal_of_geom: np.ndarray,
+    contact: np.ndarray,
+    normals: np.ndarray,
+) -> None:
     """Which feet touch something but their own animal, and the summed normals under them.
 
     The normal of MuJoCo's contact frame points from its first geom to its second; the one
@@ -294,7 +302,15 @@ def _contacts(ncon, geoms, frames, leg_of_geom, animal_of_geom, contact, normals
 
 
 @numba.njit(cache=True)
-def _headings(xpos, xmat, point_body, point_offset, pelvis, thorax, heading) -> None:
+def _headings(
+    xpos: np.ndarray,
+    xmat: np.ndarray,
+    point_body: np.ndarray,
+    point_offset: np.ndarray,
+    pelvis: int,
+    thorax: int,
+    heading: np.ndarray,
+) -> None:
     """Heading frames (columns: forward, left, up) from pelvis.start toward thorax.start."""
     a = np.empty(3)
     b = np.empty(3)
@@ -314,10 +330,13 @@ def _headings(xpos, xmat, point_body, point_offset, pelvis, thorax, heading) -> 
 
 @numba.njit(cache=True, nogil=True)
 def run(
-    code, reg, integers, integer_layout, reals, real_layout, dt,
-    xpos, xmat, xipos, cvel, subtree_com, qpos, qfrc, xfrc, dof_damping,
-    first, last, finish, time, ncon, contact_geoms, contact_frames,
-):  # fmt: skip
+    code: np.ndarray, reg: np.ndarray, integers: np.ndarray, integer_layout: np.ndarray,
+    reals: np.ndarray, real_layout: np.ndarray, dt: float,
+    xpos: np.ndarray, xmat: np.ndarray, xipos: np.ndarray, cvel: np.ndarray, subtree_com: np.ndarray,
+    qpos: np.ndarray, qfrc: np.ndarray, xfrc: np.ndarray, dof_damping: np.ndarray,
+    first: int, last: int, finish: bool, time: float, ncon: int,
+    contact_geoms: np.ndarray, contact_frames: np.ndarray,
+) -> None:  # fmt: skip
     """Run instructions `first` to `last` of a controller program (see the module docstring).
 
     `integers` and `reals` hold the runtime's tables and state (`INTEGER_ARRAYS` and
@@ -519,6 +538,6 @@ def run(
                     qfrc[spring_dof[j, i]] += -reg[b, i, 0] * (qpos[spring_qpos[j, i]] - target)
                     damping[spring_dof[j, i]] += reg[c, i, 0]
     if finish:
-        for v in range(dof_damping.shape[0]):
-            dof_damping[v] = base_damping[v] + damping[v]
+        for dof in range(dof_damping.shape[0]):
+            dof_damping[dof] = base_damping[dof] + damping[dof]
         time_in_state += dt

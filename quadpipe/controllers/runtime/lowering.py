@@ -289,11 +289,14 @@ class _Lowerer:
         """The register of a compiled DSL value."""
         if compiled.constant is not None:
             return self.typed_constant(compiled.constant, compiled.type)
+        assert compiled.expr is not None, "a compiled value without a constant keeps its expression"
         return self.expr(compiled.expr)
 
     def expr(self, expr: Expr) -> int:
         if not expr.needs:
-            return self.typed_constant(compile_expr(expr, self.compiled.scale).constant, expr.type)
+            constant = compile_expr(expr, self.compiled.scale).constant
+            assert constant is not None, "an expression that needs nothing compiles to a constant"
+            return self.typed_constant(constant, expr.type)
         op = expr.op
         if op == "var":
             return self.variable(str(expr.value))
@@ -366,20 +369,25 @@ class _Lowerer:
 
     def sensor(self, element: CompiledElement) -> None:
         spec: schema.Sensor = element.spec
-        if spec.kind == "balance":
-            horizon = (
-                self.value(element.value("horizon")) if ("horizon",) in element.values else self.scalar_constant(1.0)
-            )
-            raw = self.op(ADD, self.vector_constant(self.gravity), self.op(DIV, self.velocity(spec.at), horizon))
-        elif spec.kind == "velocity":
-            raw = self.velocity(spec.at)
-        elif spec.kind == "height":
-            raw = self.new_register(vector=False)
-            self.heights.append((raw, spec.at))
-            self.point_row(spec.at)
-        else:
+        if spec.kind == "contact_normal":
             bits = sum(1 << LEGS.index(leg) for leg in (spec.feet or LEGS))
             raw = self.read(f"ground_normal:{bits}", GROUND_NORMAL, bits)
+        else:
+            at = spec.at
+            assert at is not None, f"the element checks require `at` on a {spec.kind} sensor"
+            if spec.kind == "balance":
+                horizon = (
+                    self.value(element.value("horizon"))
+                    if ("horizon",) in element.values
+                    else self.scalar_constant(1.0)
+                )
+                raw = self.op(ADD, self.vector_constant(self.gravity), self.op(DIV, self.velocity(at), horizon))
+            elif spec.kind == "velocity":
+                raw = self.velocity(at)
+            else:
+                raw = self.new_register(vector=False)
+                self.heights.append((raw, at))
+                self.point_row(at)
         register = self.sensors[element.name][0]
         self.emit(SMOOTH, register, raw, self.value(element.value("smoothing")), list(self.sensors).index(element.name))
         self.changed(f"sensor:{element.name}")
@@ -473,6 +481,7 @@ class _Lowerer:
         elif direction.toward is not None:
             vector = self.op(SUB, self.value(element.value("direction", "toward")), acting)
         else:
+            assert direction.balance is not None, "the element checks require one of vector, toward or balance"
             horizon = self.value(element.value("direction", "horizon"))
             vector = self.op(
                 ADD, self.vector_constant(self.gravity), self.op(DIV, self.velocity(direction.balance), horizon)

@@ -43,6 +43,12 @@ WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
 
 UP = np.array([0.0, 0.0, 1.0])
 
+_FixedArguments = tuple[
+    np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float,
+    np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+]  # fmt: skip
+"""The first sixteen arguments of `kernel.run` (`code` to `dof_damping`), the same from step to step."""
+
 
 @dataclass
 class AppliedForces:
@@ -97,7 +103,7 @@ class ControllerRuntime:
         self._arrays = integer_views | real_views
         self._last: AppliedForces | None = None
         self._fixed_for: mujoco.MjData | None = None
-        self._fixed: tuple = ()
+        self._fixed: _FixedArguments  # set with `_fixed_for` by `_arguments`
         self._few_contacts = (np.zeros((1, 4), np.int32)[:, ::2], np.zeros((1, 18))[:, ::2])
         heights = self.program.heights
         self._height_registers = [register for register, _ in heights]
@@ -277,7 +283,7 @@ class ControllerRuntime:
             geoms[0], frames[0] = data.contact.geom[0], data.contact.frame[0]
         return geoms, frames
 
-    def _arguments(self, data: mujoco.MjData) -> tuple:
+    def _arguments(self, data: mujoco.MjData) -> _FixedArguments:
         """The kernel's arguments that stay the same from step to step (views of `data`'s arrays)."""
         if self._fixed_for is not data:
             self._fixed = (
