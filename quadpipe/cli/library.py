@@ -72,7 +72,8 @@ def roles(
     if skeleton is None:
         print_table("Roles", ["role", "parent", "kind"], [[role, PARENT[role] or "-", kind_of(role)] for role in ROLES])
         return
-    from quadpipe.anatomy.rolemap import guess_roles, write_role_map
+    from quadpipe.anatomy.role_guess import guess_roles
+    from quadpipe.anatomy.rolemap import write_role_map
     from quadpipe.importers import read_raw_skeleton
 
     raw = read_raw_skeleton(skeleton)
