@@ -234,7 +234,7 @@ class _Reader(MelScript):
         if attr in ATTRIBUTES:
             self.set_vector(node, target_token, attr, values)
         elif attr in ROTATE_ORDER_NAMES:
-            number = self.number(self.single(target_token, values))
+            number = self.number(self.one_value(target_token, values))
             if number not in range(len(ROTATE_ORDERS)):
                 self.fail(
                     values[0],
@@ -244,7 +244,7 @@ class _Reader(MelScript):
                 )
             node.rotate_order = ROTATE_ORDERS[int(number)]
         elif attr in SSC_NAMES:
-            node.scale_compensate = self.boolean(self.single(target_token, values))
+            node.scale_compensate = self.boolean(self.one_value(target_token, values))
 
     def set_vector(self, node: _Node, target: Token, attr: str, values: list[Token]) -> None:
         key, component = ATTRIBUTES[attr]

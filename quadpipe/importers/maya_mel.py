@@ -126,7 +126,7 @@ class MelScript:
         only some commands says which); `statements` then builds none of its tokens."""
         return False
 
-    def single(self, target: Token, values: list[Token]) -> Token:
+    def one_value(self, target: Token, values: list[Token]) -> Token:
         """The one value given to `target` (an error when there are none or several)."""
         if len(values) != 1:
             self.fail(
