@@ -14,14 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from quadpipe.anatomy.rolemap import (
-    apply_role_map,
-    guess_roles,
-    load_role_map,
-    name_side,
-    resolve_roles,
-    write_role_map,
-)
+from quadpipe.anatomy.role_guess import guess_roles
+from quadpipe.anatomy.role_names import name_side
+from quadpipe.anatomy.rolemap import apply_role_map, load_role_map, resolve_roles, write_role_map
 from quadpipe.anatomy.roles import ROLES
 from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble
 from quadpipe.core.errors import QuadpipeError

@@ -6,6 +6,7 @@ are in seconds, lengths in metres and in pelvis heights (HP).
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -233,3 +234,7 @@ class GaitReport:
             "duration_s": max(0, self.frame_count - 1) / self.fps,
             "animals": {animal.name: animal.to_dict() for animal in self.animals},
         }
+
+    def to_json(self) -> str:
+        """The report as a JSON document (what `quadpipe analyze -o` writes)."""
+        return json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"

@@ -13,7 +13,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from quadpipe.anatomy.limits import JointLimits
-from quadpipe.anatomy.rolemap import RoleGuess, guess_roles, resolve_roles, write_role_map
+from quadpipe.anatomy.role_guess import RoleGuess, guess_roles
+from quadpipe.anatomy.rolemap import resolve_roles, write_role_map
 from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.formats import FileFormat, FormatTable

@@ -1,7 +1,7 @@
 """Maya ASCII (`.ma`) skeletons: joints and the group transforms above them.
 
-A `.ma` file is a MEL script. This reader runs the few commands that build a skeleton and
-skips the rest:
+A `.ma` file is a MEL script (split into statements by `quadpipe.importers.maya_mel`). This
+reader runs the few commands that build a skeleton and skips the rest:
 
     currentUnit -l centimeter -a degree -t film;
     createNode transform -n "dog_grp";
@@ -25,18 +25,16 @@ bone's end from its single child.
 
 from __future__ import annotations
 
-import bisect
 import math
-import re
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import NoReturn
 
 import numpy as np
 
 from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
 from quadpipe.core.errors import QuadpipeError, did_you_mean
+from quadpipe.importers.maya_mel import MelScript, Token, flag_values, read_text, strip_type_flag
 
 MAYA_HEADER = "//Maya"
 """Maya refuses `.ma` files that do not start with these six characters."""
@@ -91,9 +89,6 @@ ONE_VECTORS = {"s"}
 CURRENT_UNIT_FLAGS = {"-l", "-linear", "-a", "-angle", "-t", "-time", "-ua", "-updateAnimation"}
 """Flags of `currentUnit` that take a value."""
 
-TRUE_WORDS = {"yes", "true", "on", "1"}
-FALSE_WORDS = {"no", "false", "off", "0"}
-
 
 def _attribute_table() -> dict[str, tuple[str, int | None]]:
     """Short and long attribute names -> (vector attribute, component index or None)."""
@@ -113,31 +108,6 @@ ROTATE_ORDER_NAMES = {"ro", "rotateOrder"}
 SSC_NAMES = {"ssc", "segmentScaleCompensate"}
 SCALE_NAMES = {"s", "scale"}
 INVERSE_SCALE_NAMES = {"is", "inverseScale"}
-
-_TOKEN = re.compile(
-    r"""
-      (?P<space>\s+)
-    | (?P<comment>//[^\n]*|/\*.*?\*/)
-    | (?P<open_comment>/\*)
-    | (?P<string>"(?:[^"\\\n]|\\.)*")
-    | (?P<open_string>")
-    | (?P<semicolon>;)
-    | (?P<word>[^\s;"]+)
-    """,
-    re.VERBOSE | re.DOTALL,
-)
-_ESCAPE = re.compile(r"\\(.)", re.DOTALL)
-_ESCAPES = {"n": "\n", "t": "\t", "r": "\r"}
-
-
-@dataclass(frozen=True)
-class Token:
-    """One MEL token: a word, or a quoted string (unescaped, without its quotes)."""
-
-    text: str
-    quoted: bool
-    line: int
-    column: int
 
 
 @dataclass
@@ -164,13 +134,11 @@ class _Node:
         return np.asarray(self.values.get(key, default), dtype=float)
 
 
-class _Reader:
+class _Reader(MelScript):
     """Runs the skeleton-building commands of one `.ma` file."""
 
     def __init__(self, source: str, text: str) -> None:
-        self.source = source
-        self.text = text
-        self.line_starts = [0] + [m.end() for m in re.finditer("\n", text)]
+        super().__init__(source, text)
         self.nodes: list[_Node] = []
         self.current: _Node | None = None
         self.unit = "cm"
@@ -186,72 +154,6 @@ class _Reader:
             "select": self.select,
             "parent": self.parent_command,
         }
-
-    # -- tokens ---------------------------------------------------------------------------
-
-    def fail(self, token: Token | None, code: str, message: str, hint: str | None = None) -> NoReturn:
-        raise QuadpipeError.single(
-            code,
-            message,
-            file=self.source,
-            line=token.line if token else None,
-            column=token.column if token else None,
-            hint=hint,
-        )
-
-    def position(self, offset: int) -> tuple[int, int]:
-        line = bisect.bisect_right(self.line_starts, offset)
-        return line, offset - self.line_starts[line - 1] + 1
-
-    def token(self, match: re.Match[str]) -> Token:
-        """The token a regex match stands for; an unclosed string or comment is an error."""
-        line, column = self.position(match.start())
-        kind = match.lastgroup
-        if kind == "string":
-            text = _ESCAPE.sub(lambda m: _ESCAPES.get(m.group(1), m.group(1)), match.group()[1:-1])
-            return Token(text, True, line, column)
-        if kind == "open_string":
-            self.fail(
-                Token('"', False, line, column),
-                "ma-unterminated-string",
-                "this string has no closing quote on its line",
-                'close the string with " (write a line break inside a string as \\n)',
-            )
-        if kind == "open_comment":
-            self.fail(
-                Token("/*", False, line, column),
-                "ma-unterminated-comment",
-                "this /* comment is never closed",
-                "close it with */",
-            )
-        return Token(match.group(), False, line, column)
-
-    def statements(self) -> Iterator[list[Token]]:
-        """Statements (token lists) separated by `;`; a missing final `;` means a cut file.
-
-        Statements this reader does not run are scanned without building their tokens (mesh
-        data can be millions of numbers).
-        """
-        pending: list[Token] = []
-        skipping = False
-        for match in _TOKEN.finditer(self.text):
-            kind = match.lastgroup
-            if kind in ("space", "comment") or (skipping and kind in ("word", "string")):
-                continue
-            if kind == "semicolon":
-                if pending and not skipping:
-                    yield pending
-                pending, skipping = [], False
-                continue
-            pending.append(self.token(match))
-            skipping = self.ignorable(pending)
-        if pending:
-            self.fail(
-                pending[0],
-                "ma-truncated",
-                f"the file ends inside this {pending[0].text!r} statement (no closing ';')",
-                "the file was cut short: save or export it again",
-            )
 
     def ignorable(self, pending: list[Token]) -> bool:
         """Whether a statement begun with these tokens cannot matter to the skeleton."""
@@ -272,7 +174,7 @@ class _Reader:
             self.commands[statement[0].text](statement)
 
     def current_unit(self, statement: list[Token]) -> None:
-        for flag, value in _flag_values(statement, CURRENT_UNIT_FLAGS):
+        for flag, value in flag_values(statement, CURRENT_UNIT_FLAGS):
             if flag.text in ("-l", "-linear"):
                 self.set_linear_unit(value)
             elif flag.text in ("-a", "-angle"):
@@ -296,7 +198,7 @@ class _Reader:
         self.unit, self.unit_factor = unit, factor
 
     def create_node(self, statement: list[Token]) -> None:
-        flags = dict(_flag_values(statement, {"-n", "-name", "-p", "-parent"}))
+        flags = dict(flag_values(statement, {"-n", "-name", "-p", "-parent"}))
         kind = next((t.text for t in statement[1:] if not t.text.startswith("-") and t not in flags.values()), None)
         name = next((v for f, v in flags.items() if f.text in ("-n", "-name")), None)
         parent_ref = next((v for f, v in flags.items() if f.text in ("-p", "-parent")), None)
@@ -328,11 +230,11 @@ class _Reader:
         node = self.current if not node_ref else self.find(node_ref)
         if node is None:
             return
-        values = _strip_type_flag(statement[attr_index + 1 :])
+        values = strip_type_flag(statement[attr_index + 1 :])
         if attr in ATTRIBUTES:
             self.set_vector(node, target_token, attr, values)
         elif attr in ROTATE_ORDER_NAMES:
-            number = self.number(self.single(target_token, values))
+            number = self.number(self.one_value(target_token, values))
             if number not in range(len(ROTATE_ORDERS)):
                 self.fail(
                     values[0],
@@ -342,7 +244,7 @@ class _Reader:
                 )
             node.rotate_order = ROTATE_ORDERS[int(number)]
         elif attr in SSC_NAMES:
-            node.scale_compensate = self.boolean(self.single(target_token, values))
+            node.scale_compensate = self.boolean(self.one_value(target_token, values))
 
     def set_vector(self, node: _Node, target: Token, attr: str, values: list[Token]) -> None:
         key, component = ATTRIBUTES[attr]
@@ -381,29 +283,7 @@ class _Reader:
                     "create the node under its parent with createNode -p (re-save the file from Maya)",
                 )
 
-    # -- values and names -----------------------------------------------------------------
-
-    def single(self, target: Token, values: list[Token]) -> Token:
-        if len(values) != 1:
-            self.fail(
-                values[0] if values else target, "ma-bad-value", f"{target.text!r} takes one value, found {len(values)}"
-            )
-        return values[0]
-
-    def number(self, token: Token) -> float:
-        try:
-            value = float(token.text)
-        except ValueError:
-            value = math.nan
-        if not math.isfinite(value):
-            self.fail(token, "ma-bad-number", f"{token.text!r} is not a number", "write a plain decimal number")
-        return value
-
-    def boolean(self, token: Token) -> bool:
-        word = token.text.lower()
-        if word not in TRUE_WORDS | FALSE_WORDS:
-            self.fail(token, "ma-bad-value", f"{token.text!r} is not yes/no", "write yes or no")
-        return word in TRUE_WORDS
+    # -- node names -----------------------------------------------------------------------
 
     def find(self, ref: str) -> _Node | None:
         """The tracked node a name or DAG path refers to (None if untracked or ambiguous)."""
@@ -480,29 +360,6 @@ class _Reader:
         return RawSkeleton(name=name, source=self.source, joints=tuple(records), units=self.unit, up="y")
 
 
-def _flag_values(statement: list[Token], flags: set[str]) -> list[tuple[Token, Token]]:
-    """(flag, value) pairs for the flags in `flags` (each takes one value)."""
-    pairs = []
-    for index, token in enumerate(statement[:-1]):
-        if token.text in flags and not token.quoted:
-            pairs.append((token, statement[index + 1]))
-    return pairs
-
-
-def _strip_type_flag(values: list[Token]) -> list[Token]:
-    """Drop `-type "double3"` (and similar) from a setAttr value list."""
-    kept: list[Token] = []
-    skip = False
-    for token in values:
-        if skip:
-            skip = False
-        elif token.text in ("-type", "-typ") and not token.quoted:
-            skip = True
-        else:
-            kept.append(token)
-    return kept
-
-
 def _unique_names(joints: list[_Node]) -> dict[int, str]:
     """Short names where they are unique among joints, full DAG paths where they are not."""
     counts: dict[str, int] = {}
@@ -575,17 +432,6 @@ def local_matrix(node: _Node) -> np.ndarray:
     )
 
 
-def _read_text(path: Path) -> str:
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise QuadpipeError.single("file-unreadable", f"cannot read {path}: {exc.strerror}", file=str(path)) from None
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        return data.decode("latin-1")
-
-
 def read_skeleton(path: str | Path) -> RawSkeleton:
     """Read the joints of a Maya ASCII file, with world positions and main axes.
 
@@ -594,7 +440,7 @@ def read_skeleton(path: str | Path) -> RawSkeleton:
             number or value, an unknown or ambiguous parent, an unknown unit.
     """
     path = Path(path)
-    text = _read_text(path)
+    text = read_text(path)
     reader = _Reader(str(path), text)
     if not text.startswith(MAYA_HEADER):
         reader.fail(

@@ -75,6 +75,13 @@ def build_world(placements: Sequence[Placement], *, floor: bool = True) -> mujoc
     return spec
 
 
+def world_mjcf(placements: Sequence[Placement], *, floor: bool = True) -> str:
+    """The MJCF of `build_world(placements, floor=floor)`, compiled first (which checks it)."""
+    spec = build_world(placements, floor=floor)
+    spec.compile()
+    return spec.to_xml()
+
+
 def world_spec(name: str, animals: Sequence[BuiltAnimal], floor_friction: float | None = FRICTION[0]) -> mujoco.MjSpec:
     """An empty world for these animals: their smallest time step, a sky and a sun, and a
     floor of sliding friction `floor_friction` (None: no floor)."""

@@ -1,0 +1,69 @@
+"""Commands that turn a clip into pictures or figures: render, analyze."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from quadpipe.cli.options import AnimalOpt, ControllerOpt, SceneOpt, SecondsOpt, SetOpt, parse_parameters
+from quadpipe.cli.output import write_gait_files
+
+
+def render(
+    outputs: Annotated[
+        list[Path], typer.Option("-o", "--output", help="Video or picture: .mp4, .gif, or .png (a contact sheet).")
+    ],
+    clip: Annotated[Path | None, typer.Argument(help="A baked clip (.npz); without it, simulate first.")] = None,
+    animal: AnimalOpt = "dog",
+    controller: ControllerOpt = "spine_walk",
+    scene: SceneOpt = "flat",
+    seconds: SecondsOpt = 5.0,
+    parameters: SetOpt = None,
+    width: Annotated[int, typer.Option(help="Frame width in pixels.")] = 640,
+    height: Annotated[int, typer.Option(help="Frame height in pixels.")] = 480,
+    overlays: Annotated[str, typer.Option(help="Overlays to draw: contacts,trail or none.")] = "contacts,trail",
+) -> None:
+    """Render a clip headless (MuJoCo's renderer) to MP4, GIF, or a PNG contact sheet.
+
+    Example: quadpipe render run.npz -o run.mp4 -o sheet.png   |   quadpipe render --controller spine_walk --scene hill -o walk.mp4
+    """
+    from quadpipe.render import builtin_overlays, render_clip
+
+    if clip is not None:
+        from quadpipe.exporters.npz import load_clip
+
+        baked = load_clip(clip)
+    else:
+        from quadpipe.sim.simulation import simulate as run_simulation
+
+        baked = run_simulation(
+            animal, controller, seconds=seconds, scene=scene, parameters=parse_parameters(parameters)
+        ).clip
+    names = [] if overlays == "none" else [name.strip() for name in overlays.split(",") if name.strip()]
+    for output in outputs:
+        render_clip(baked, output, width=width, height=height, overlays=builtin_overlays(baked, names))
+        typer.echo(f"wrote {output}")
+
+
+def analyze(
+    clip: Annotated[Path, typer.Argument(help="A baked clip (.npz) from `quadpipe simulate` or `bake`.")],
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the report as JSON.")] = None,
+    diagram: Annotated[
+        Path | None, typer.Option("--diagram", help="Draw a footfall (Hildebrand) diagram (.png).")
+    ] = None,
+    animal: Annotated[str | None, typer.Option("--animal", "-a", help="Analyse only this animal of the clip.")] = None,
+) -> None:
+    """Gait analysis of a clip: footfalls, duty factors, phases, stride, speed, Froude number, gait name.
+
+    Example: quadpipe analyze run.npz -o report.json --diagram footfalls.png
+    """
+    from quadpipe.analysis import analyze_clip, check_diagram_path, format_report
+    from quadpipe.exporters.npz import load_clip
+
+    if diagram is not None:
+        check_diagram_path(diagram)
+    report = analyze_clip(load_clip(clip), animal)
+    typer.echo(format_report(report))
+    write_gait_files(report, output, diagram)

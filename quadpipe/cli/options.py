@@ -1,0 +1,70 @@
+"""Arguments and options that several commands share, and the parsing of their values."""
+
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+
+class OutputFormat(str, Enum):
+    """Output formats of the listing commands."""
+
+    text = "text"
+    json = "json"
+
+
+FormatOpt = Annotated[OutputFormat, typer.Option("--format", help="Output format.")]
+
+SourceArg = Annotated[
+    str,
+    typer.Argument(help="An animal name (dog), an animal config (.yaml) or a skeleton file (.xml, .ma, .bvh)."),
+]
+LimitsOpt = Annotated[
+    Path | None, typer.Option("--limits", help="Joint-limit table for a bare skeleton (default: the thesis's).")
+]
+RolesOpt = Annotated[Path | None, typer.Option("--roles", help="Role map YAML for a skeleton's own bone names.")]
+MassOpt = Annotated[float | None, typer.Option("--mass", help="Body mass in kg for a bare skeleton.")]
+
+AnimalOpt = Annotated[str, typer.Option("--animal", "-a", help="Animal name or config file.")]
+ControllerOpt = Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")]
+SceneOpt = Annotated[str, typer.Option("--scene", help="Scene name or file: terrain, props, throws, goals.")]
+SecondsOpt = Annotated[float, typer.Option("--seconds", "-s", min=0.0, help="Simulated time.")]
+SetOpt = Annotated[
+    list[str] | None, typer.Option("--set", help="Override a controller parameter: NAME=VALUE (repeatable).")
+]
+MetricsOpt = Annotated[Path | None, typer.Option("--metrics", help="Metrics JSON (default: beside the first output).")]
+FpsOpt = Annotated[
+    float,
+    typer.Option(
+        "--fps", min=1.0, help="Recorded frames per second; must divide the physics rate (120 for most animals)."
+    ),
+]
+GaitReportOpt = Annotated[
+    Path | None,
+    typer.Option("--gait-report", help="Also write the gait analysis (as `quadpipe analyze -o`) to this JSON file."),
+]
+DiagramOpt = Annotated[
+    Path | None, typer.Option("--diagram", help="Also draw the footfall (Hildebrand) diagram to this PNG file.")
+]
+
+
+def parse_parameters(pairs: list[str] | None) -> dict[str, str]:
+    """The `--set NAME=VALUE` options as a dict.
+
+    Raises:
+        QuadpipeError: `bad-parameter` for an option that is not NAME=VALUE.
+    """
+    from quadpipe.core.errors import QuadpipeError
+
+    result = {}
+    for pair in pairs or []:
+        name, sep, value = pair.partition("=")
+        if not sep or not name.strip():
+            raise QuadpipeError.single(
+                "bad-parameter", f"--set {pair!r} is not NAME=VALUE", hint='e.g. --set "pedal_force=0.2 bw"'
+            )
+        result[name.strip()] = value.strip()
+    return result

@@ -1,0 +1,200 @@
+"""Commands that run simulations: simulate, bake, batch, preview."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+from quadpipe.animals.sizing import FRAME_RATE
+from quadpipe.cli.options import (
+    AnimalOpt,
+    ControllerOpt,
+    DiagramOpt,
+    FpsOpt,
+    GaitReportOpt,
+    MetricsOpt,
+    SceneOpt,
+    SecondsOpt,
+    SetOpt,
+    parse_parameters,
+)
+from quadpipe.cli.output import write_gait_files
+
+if TYPE_CHECKING:
+    from quadpipe.preview.base import Preview
+
+
+def simulate(
+    animal: AnimalOpt = "dog",
+    controller: ControllerOpt = "rigid",
+    scene: SceneOpt = "flat",
+    seconds: SecondsOpt = 10.0,
+    output: Annotated[Path, typer.Option("-o", "--output", help="Clip to write (.npz, or any bake format).")] = Path(
+        "run.npz"
+    ),
+    metrics: MetricsOpt = None,
+    parameters: SetOpt = None,
+    fps: FpsOpt = FRAME_RATE,
+    gait_report: GaitReportOpt = None,
+    diagram: DiagramOpt = None,
+) -> None:
+    """Simulate an animal under a controller and write the clip and its metrics.
+
+    Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png
+    """
+    _bake_and_report(animal, controller, scene, seconds, [output], metrics, parameters, fps, gait_report, diagram)
+
+
+def bake(
+    outputs: Annotated[list[Path], typer.Option("-o", "--output", help="File to write; repeat for several formats.")],
+    animal: AnimalOpt = "dog",
+    controller: ControllerOpt = "spine_walk",
+    scene: SceneOpt = "flat",
+    seconds: SecondsOpt = 10.0,
+    metrics: MetricsOpt = None,
+    parameters: SetOpt = None,
+    fps: FpsOpt = FRAME_RATE,
+    gait_report: GaitReportOpt = None,
+    diagram: DiagramOpt = None,
+) -> None:
+    """Simulate once and bake the motion into every requested file; the suffix picks the format.
+
+    Formats: .glb .gltf (glTF 2.0), .usda .usdc .usdz (OpenUSD), .bvh, .npz (raw clip).
+    Example: quadpipe bake --animal horse --controller trot --scene hill -o horse.glb -o horse.usdc --gait-report horse.gait.json
+    """
+    _bake_and_report(animal, controller, scene, seconds, outputs, metrics, parameters, fps, gait_report, diagram)
+
+
+def _bake_and_report(
+    animal: str,
+    controller: str,
+    scene: str,
+    seconds: float,
+    outputs: list[Path],
+    metrics: Path | None,
+    parameters: list[str] | None,
+    fps: float,
+    gait_report: Path | None,
+    diagram: Path | None,
+) -> None:
+    """`simulate` and `bake`: check every output path first, bake, print the figures, then the gait files."""
+    from quadpipe.batch.bake import METRICS_SUFFIX, bake
+    from quadpipe.core.atomic import check_writable
+    from quadpipe.exporters import check_output_path
+
+    for output in outputs:
+        check_output_path(output)
+    for extra in (metrics, gait_report, diagram):
+        if extra is not None:
+            check_writable(extra)
+    if diagram is not None:
+        from quadpipe.analysis import check_diagram_path
+
+        check_diagram_path(diagram)
+    metrics_path = metrics or outputs[0].with_suffix(METRICS_SUFFIX)
+    result = bake(
+        animal,
+        controller,
+        seconds=seconds,
+        outputs=outputs,
+        metrics_path=metrics_path,
+        scene=scene,
+        parameters=parse_parameters(parameters),
+        fps=fps,
+    )
+    typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
+    for name, figures in result.metrics["animals"].items():
+        typer.echo(
+            f"  {name}: {figures['distance_hp']:.2f} HP travelled, pelvis {figures['pelvis_height_min_hp']:.2f}-"
+            f"{figures['pelvis_height_max_hp']:.2f} HP{', FELL' if figures['fell'] else ''}"
+        )
+    if gait_report is not None or diagram is not None:
+        from quadpipe.analysis import analyze_clip
+
+        write_gait_files(analyze_clip(result.clip), gait_report, diagram)
+
+
+def batch(
+    plan: Annotated[
+        Path | None, typer.Argument(help="A batch plan (.yaml); the options below replace its values.")
+    ] = None,
+    animals: Annotated[
+        list[str] | None,
+        typer.Option("--animal", "-a", help="Animals: names or files, repeated or comma-separated, or 'all'."),
+    ] = None,
+    controllers: Annotated[
+        list[str] | None, typer.Option("--controller", "-c", help="Controllers: names or files, or 'all'.")
+    ] = None,
+    scenes: Annotated[
+        list[str] | None, typer.Option("--scene", help="Scenes: names or files, or 'all' (default: flat).")
+    ] = None,
+    seconds: Annotated[
+        float | None, typer.Option("--seconds", "-s", help="Simulated time of every job (default: 10).")
+    ] = None,
+    formats: Annotated[
+        list[str] | None,
+        typer.Option("--format", "-f", help="Formats to write: glb, usdc, bvh, npz... (default: glb)."),
+    ] = None,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Folder of the files (default: out/batch).")
+    ] = None,
+    workers: Annotated[
+        int | None, typer.Option("--workers", "-j", min=1, help="Worker processes (default: one per CPU core).")
+    ] = None,
+    force: Annotated[bool, typer.Option("--force", help="Redo jobs whose files are all there already.")] = False,
+    scheduler: Annotated[
+        str | None,
+        typer.Option("--scheduler", help="Run on a Dask cluster: its scheduler's address (tcp://host:8786)."),
+    ] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars; only the summary.")] = False,
+) -> None:
+    """Bake every animal x controller x scene of a plan in parallel, locally or on a Dask cluster.
+
+    Each job writes OUTPUT/<animal>_<controller>_<scene>.<format> for every format, and a
+    .metrics.json. Jobs whose files are all there are skipped (--force redoes them); a failing job
+    does not stop the others, and the exit code is 1 if any failed. See docs/batch.md.
+    Example: quadpipe batch configs/batches/walks.yaml -j 4   |   quadpipe batch -a dog,horse -c spine_walk -f glb -f usdc -s 5
+    """
+    from rich.console import Console
+
+    from quadpipe.batch import plan_from, run_batch, summary_table
+
+    chosen = plan_from(
+        plan, animals=animals, controllers=controllers, scenes=scenes, seconds=seconds, formats=formats, output=output
+    )
+    report = run_batch(chosen, workers=workers, force=force, scheduler=scheduler, progress=not quiet)
+    Console().print(summary_table(report))
+    raise typer.Exit(report.exit_code)
+
+
+def preview(
+    clip: Annotated[
+        Path | None, typer.Argument(help="A baked clip (.npz) to replay; without it, simulate live.")
+    ] = None,
+    animal: AnimalOpt = "dog",
+    controller: ControllerOpt = "spine_walk",
+    scene: SceneOpt = "flat",
+    parameters: SetOpt = None,
+) -> None:
+    """Open a window: watch the animal simulate live while you edit its controller (saved edits reload), or replay a clip.
+
+    Keys: space pause, . step, r reset, m slow motion, b/x throw a ball/box, arrows move the goal, 1-9 force a state,
+    F1-F6 overlays, c free camera, h help.
+    Example: quadpipe preview --animal dog --controller my_walk.yaml --scene hill   |   quadpipe preview run.npz
+    """
+    from quadpipe.preview.window import check_display, open_window
+
+    check_display()
+    model: Preview
+    if clip is not None:
+        from quadpipe.preview import load_replay
+
+        model, title = load_replay(clip), f"quadpipe preview: {clip}"
+    else:
+        from quadpipe.preview import LivePreview
+
+        model = LivePreview(animal, controller, scene, parse_parameters(parameters))
+        title = f"quadpipe preview: {animal} / {controller} / {scene}"
+    open_window(model, title)
