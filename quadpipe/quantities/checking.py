@@ -429,7 +429,7 @@ def finite_number(value: Any, text: str) -> float:
     if not math.isfinite(number):
         raise ExprError(
             "non-finite-number",
-            f"{text!r} is not a finite number",
+            f"{text if len(text) <= 40 else text[:20] + '...' + text[-8:]!r} is not a finite number",
             f"write a number between -{sys.float_info.max:.3g} and {sys.float_info.max:.3g}",
         )
     return number
