@@ -194,7 +194,15 @@ def test_heading_turns_a_heading_vector_into_the_world(two_animals: Scale) -> No
 
 def test_degenerate_values_give_zero_not_nan(two_animals: Scale) -> None:
     assert compile_quantity("normalize([0, 0, 0])", two_animals).constant == pytest.approx(np.zeros((2, 3)))
-    assert compile_quantity("1 N / (0 s * 1 / 1 s)", two_animals).constant == pytest.approx([0.0, 0.0])
+    at_zero = {"t": np.zeros(2)}
+    assert compile_quantity("1 N / (t * 1 / 1 s)", two_animals)(at_zero) == pytest.approx([0.0, 0.0])
+
+
+def test_a_divisor_that_is_always_zero_is_refused_before_running(two_animals: Scale) -> None:
+    for text in ("1 N / (0 s * 1 / 1 s)", "0.5 bw / 0", "0.5 bw / (1 - 1)"):
+        with pytest.raises(ExprError) as caught:
+            compile_quantity(text, two_animals)
+        assert caught.value.code == "division-by-zero", text
 
 
 def test_angle_between_vectors(two_animals: Scale) -> None:

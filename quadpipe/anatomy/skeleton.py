@@ -212,20 +212,23 @@ def _check_hierarchy(raw: RawSkeleton, by_name: Mapping[str, JointRecord]) -> No
                 where=raw.where(joint),
                 hint=did_you_mean(joint.parent, by_name, listing=False) or "check the parent's name",
             )
+    acyclic: set[str] = set()
     for joint in raw.joints:
-        seen = [joint.name]
+        chain: dict[str, None] = {joint.name: None}
         current = joint
-        while current.parent is not None:
+        while current.parent is not None and current.parent not in acyclic:
             current = by_name[current.parent]
-            if current.name in seen:
-                loop = " -> ".join(seen[seen.index(current.name) :] + [current.name])
+            if current.name in chain:
+                names = list(chain)
+                loop = " -> ".join(names[names.index(current.name) :] + [current.name])
                 raise QuadpipeError.single(
                     "hierarchy-cycle",
                     f"the hierarchy loops: {loop}",
                     where=raw.where(joint),
                     hint="a joint cannot be its own ancestor; fix one of these parents",
                 )
-            seen.append(current.name)
+            chain[current.name] = None
+        acyclic.update(chain)
 
 
 def _assign_roles(

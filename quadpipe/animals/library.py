@@ -21,7 +21,7 @@ from quadpipe.anatomy.limits import JointLimit
 from quadpipe.anatomy.skeleton import Skeleton
 from quadpipe.core import configs
 from quadpipe.core.errors import Issue, QuadpipeError
-from quadpipe.core.yamlio import load_yaml, validate_document
+from quadpipe.core.yamlio import Name, load_yaml, validate_document
 
 REFERENCE_HP_M = 0.6556
 """The thesis's dog pelvis height, the reference size for defaults."""
@@ -38,7 +38,7 @@ class AnimalConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    name: str = Field(description="Name of the animal, as used on the command line.")
+    name: Name = Field(description="Name of the animal, as used on the command line.")
     skeleton: str = Field(description="Skeleton file (.xml, .ma, .bvh), relative to this file.")
     limits: str = Field(description="Joint-limit table (.tsv, .csv), relative to this file.")
     roles: str | None = Field(None, description="Role map YAML for skeletons whose names are not roles.")

@@ -37,6 +37,12 @@ GROUPS: tuple[CodeGroup, ...] = (
         "controllers, scenes, batch plans, role maps).",
         {
             "yaml-syntax": "the file is not valid YAML",
+            "yaml-bad-character": "a control character YAML does not allow",
+            "yaml-recursive-alias": "a YAML alias inside the collection its anchor names (it would never end)",
+            "not-utf8": "a text file (YAML, skeleton, limits table) that is not UTF-8: UTF-16, Latin-1 or binary",
+            "not-text": "a text file holding a NUL byte: binary data, or UTF-16 without a byte order mark",
+            "limit-exceeded": "an input over one of the limits of `quadpipe/core/limits.py` (file size, YAML aliases or nesting, joints, elements, props, animals, simulated time...)",
+            "bad-limit": "a `QUADPIPE_MAX_...` environment variable that is not a positive number",
             "duplicate-key": "a key appears twice in one mapping",
             "file-unreadable": "the file cannot be read",
             "file-not-found": "a file named on the command line or in another file (`extends`, a scene's animal) does not exist",
@@ -133,6 +139,8 @@ GROUPS: tuple[CodeGroup, ...] = (
         {
             "expression-syntax": "an expression that cannot be parsed",
             "forbidden-syntax": "an expression using syntax that is not allowed",
+            "non-finite-number": "a number that is not finite (nan, inf, 1e309), or a constant part of an expression that overflows (10^10^10)",
+            "division-by-zero": "an expression dividing by a constant zero (`0.5 bw / 0`)",
             "unknown-name": "an expression using a name that does not exist",
             "unknown-function": "an expression calling a function that does not exist",
             "unknown-cycle": "phase() of something that is not a cycle element",
@@ -200,6 +208,7 @@ GROUPS: tuple[CodeGroup, ...] = (
         {
             "bad-fps": "a frame rate that is not positive or does not divide the physics rate",
             "simulation-blew-up": "the simulation diverged (a non-finite state, a bad acceleration, a body flung away)",
+            "non-finite-force": "a controller element computed a force, a spring target, stiffness or damping that is NaN or infinite",
         },
     ),
     CodeGroup(

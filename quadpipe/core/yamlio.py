@@ -2,7 +2,8 @@
 
 `load_yaml` returns a `YamlDocument`: the plain data (dicts, lists, scalars) plus the line and
 column of every key and value, so that schema errors point at `file:line:col`. Duplicate keys
-are errors (PyYAML silently keeps the last one).
+are errors (PyYAML silently keeps the last one), and so are documents that would grow without
+bound (nesting, aliases: see `quadpipe.core.limits`).
 """
 
 from __future__ import annotations
@@ -13,13 +14,16 @@ import typing
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Annotated, Any, TypeVar
 
 import pydantic
 import yaml
+from pydantic import AfterValidator
 from pydantic_core import ErrorDetails
 
+from quadpipe.core import limits
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
+from quadpipe.core.textfiles import read_text
 
 BaseModelT = TypeVar("BaseModelT", bound=pydantic.BaseModel)
 
@@ -66,7 +70,7 @@ class YamlDocument:
             path = path[:-1]
 
 
-def _mark(node: yaml.Node) -> tuple[int, int]:
+def _mark(node: yaml.Node | yaml.Event) -> tuple[int, int]:
     return node.start_mark.line + 1, node.start_mark.column + 1
 
 
@@ -99,11 +103,17 @@ def parse_yaml(text: str, file: str = "<input>") -> YamlDocument:
     """Parse YAML text into a `YamlDocument`; syntax errors become a located `QuadpipeError`.
 
     Parsing uses libyaml when available; a syntax error is parsed again with PyYAML's own
-    loader, whose messages say more ("expected <block end>, but found '<scalar>'").
+    loader, whose messages say more ("expected <block end>, but found '<scalar>'"). Before
+    anything is built, the parser's events are measured (`_measure`): too deep a nesting, too
+    many aliases, or aliases that would expand past `MAX_YAML_NODES` are refused.
     """
     try:
+        _measure(text, file, _LOADER)
         return _parse(text, file, _LOADER)
-    except yaml.MarkedYAMLError:
+    except yaml.reader.ReaderError:
+        raise _bad_character(text, file) from None
+    except yaml.MarkedYAMLError as first:
+        exc = first
         if _LOADER is not yaml.SafeLoader:
             try:
                 _parse(text, file, yaml.SafeLoader)
@@ -120,6 +130,71 @@ def parse_yaml(text: str, file: str = "<input>") -> YamlDocument:
         ) from None
 
 
+def _measure(text: str, file: str, loader_class: Any) -> None:
+    """Refuse a document too deep, with too many aliases, or too big once its aliases expand.
+
+    Works on the parser's events, before any node is composed or copied: the expanded size is
+    counted, not built (an alias adds the size of what its anchor named).
+
+    Raises:
+        QuadpipeError: `limit-exceeded`, or `yaml-recursive-alias` for an alias inside the
+            very collection it names.
+        yaml.YAMLError: a syntax error.
+    """
+    loader = loader_class(text)
+    anchored: dict[str, int] = {}
+    open_collections: list[tuple[str | None, int]] = []
+    expanded = aliases = 0
+    try:
+        while loader.check_event():
+            event = loader.get_event()
+            where = Location(file, *_mark(event))
+            if isinstance(event, yaml.AliasEvent):
+                aliases += 1
+                if aliases > limits.MAX_YAML_ALIASES.value:
+                    raise limits.MAX_YAML_ALIASES.exceeded(where=where)
+                if any(anchor == event.anchor for anchor, _ in open_collections):
+                    raise QuadpipeError.single(
+                        "yaml-recursive-alias",
+                        f"alias *{event.anchor} is inside the collection &{event.anchor} names: it would never end",
+                        where=where,
+                        hint="an alias can only repeat a collection that is already closed",
+                    )
+                expanded += anchored.get(event.anchor, 1)
+            elif isinstance(event, (yaml.ScalarEvent, yaml.CollectionStartEvent)):
+                expanded += 1
+                if isinstance(event, yaml.CollectionStartEvent):
+                    open_collections.append((event.anchor, expanded - 1))
+                    limits.MAX_YAML_DEPTH.check(len(open_collections), where=where)
+                elif event.anchor is not None:
+                    anchored[event.anchor] = 1
+            elif isinstance(event, yaml.CollectionEndEvent):
+                anchor, start = open_collections.pop()
+                if anchor is not None:
+                    anchored[anchor] = expanded - start
+            if expanded > limits.MAX_YAML_NODES.value:
+                raise limits.MAX_YAML_NODES.exceeded(where=where)
+    finally:
+        loader.dispose()
+
+
+def _bad_character(text: str, file: str) -> QuadpipeError:
+    """The located error for a character YAML does not allow (a control character)."""
+    match = yaml.reader.Reader.NON_PRINTABLE.search(text)
+    offset = match.start() if match else 0
+    line = text.count("\n", 0, offset) + 1
+    column = offset - (text.rfind("\n", 0, offset) + 1) + 1
+    character = f"U+{ord(text[offset]):04X}" if match else "a control character"
+    return QuadpipeError.single(
+        "yaml-bad-character",
+        f"character {character} is not allowed in YAML text",
+        file=file,
+        line=line,
+        column=column,
+        hint="remove it: is the file binary, or was it damaged?",
+    )
+
+
 def _parse(text: str, file: str, loader_class: Any) -> YamlDocument:
     loader = loader_class(text)
     try:
@@ -132,13 +207,18 @@ def _parse(text: str, file: str, loader_class: Any) -> YamlDocument:
 
 
 def load_yaml(path: str | Path) -> YamlDocument:
-    """Read and parse a YAML file; a missing or unreadable file is a `QuadpipeError`."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise QuadpipeError.single("file-unreadable", f"cannot read {path}: {exc.strerror}", file=str(path)) from None
-    return parse_yaml(text, str(path))
+    """Read and parse a YAML file; a missing, unreadable, too big or non-UTF-8 file is a `QuadpipeError`."""
+    return parse_yaml(read_text(path, limits.MAX_YAML_FILE_BYTES), str(path))
+
+
+def _not_blank(value: str) -> str:
+    if not value.strip():
+        raise ValueError("a name cannot be empty")
+    return value
+
+
+Name = Annotated[str, AfterValidator(_not_blank)]
+"""A name in a file (a controller, element, parameter, scene or animal): text, not empty or blank."""
 
 
 def validate_document(model: type[BaseModelT], doc: YamlDocument) -> BaseModelT:

@@ -34,7 +34,9 @@ from pathlib import Path
 from typing import NoReturn
 
 from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
-from quadpipe.core.errors import QuadpipeError
+from quadpipe.core import limits
+from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.textfiles import read_text
 
 CHANNEL_NAMES = {f"{axis}{kind}" for axis in "xyz" for kind in ("position", "rotation")}
 """Valid CHANNELS entries, lower-cased."""
@@ -75,7 +77,7 @@ def _moved(point: Vector, offset: Vector) -> Vector:
 
 
 class _Parser:
-    """Recursive-descent reader of the HIERARCHY section."""
+    """Reader of the HIERARCHY section."""
 
     def __init__(self, source: str, text: str) -> None:
         self.source = source
@@ -171,23 +173,23 @@ class _Parser:
         return self.joints
 
     def joint(self, keyword: _Token, parent: _Joint | None) -> None:
-        origin = parent.position if parent and parent.position else (0.0, 0.0, 0.0)
-        joint = _Joint(self.rest_of_line(keyword), parent.name if parent else None, keyword.line, origin)
-        self.joints.append(joint)
-        self.expect_open(joint)
-        while True:
+        """Read a ROOT and every joint under it, with a stack of the open joints (not recursion)."""
+        stack = [self.open_joint(keyword, parent)]
+        while stack:
+            joint = stack[-1]
             token = self.take(joint)
             keyword_text = token.text.upper()
             if token.text == "}":
-                break
-            if keyword_text == "OFFSET":
+                self.require_offset(token, joint)
+                stack.pop()
+            elif keyword_text == "OFFSET":
                 offset = self.offset(joint, f"OFFSET of {joint.name!r}")
-                joint.position = _moved(origin, offset)
+                joint.position = _moved(joint.origin, offset)
             elif keyword_text == "CHANNELS":
                 self.channels(token, joint)
             elif keyword_text == "JOINT":
                 self.require_offset(token, joint)
-                self.joint(token, joint)
+                stack.append(self.open_joint(token, joint))
             elif keyword_text == "END":
                 self.end_site(token, joint)
             elif keyword_text in ("ROOT", "MOTION", "HIERARCHY"):
@@ -204,7 +206,16 @@ class _Parser:
                     f"unexpected {token.text!r} in joint {joint.name!r}",
                     "a joint holds OFFSET, CHANNELS, JOINT and End Site",
                 )
-        self.require_offset(token, joint)
+
+    def open_joint(self, keyword: _Token, parent: _Joint | None) -> _Joint:
+        """A new joint from its ROOT or JOINT line and the '{' after it."""
+        origin = parent.position if parent and parent.position else (0.0, 0.0, 0.0)
+        joint = _Joint(self.rest_of_line(keyword), parent.name if parent else None, keyword.line, origin)
+        if len(self.joints) >= limits.MAX_JOINTS.value:
+            raise limits.MAX_JOINTS.exceeded(where=Location(self.source, keyword.line, keyword.column))
+        self.joints.append(joint)
+        self.expect_open(joint)
+        return joint
 
     def require_offset(self, token: _Token, joint: _Joint) -> Vector:
         """The joint's position; failing when its OFFSET has not been read yet."""
@@ -286,10 +297,7 @@ def read_skeleton(path: str | Path) -> RawSkeleton:
             CHANNELS line that does not add up, or anything else out of place.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except OSError as exc:
-        raise QuadpipeError.single("file-unreadable", f"cannot read {path}: {exc.strerror}", file=str(path)) from None
+    text = read_text(path, limits.MAX_SKELETON_FILE_BYTES)
     joints = _Parser(str(path), text).parse()
     records = tuple(j.record() for j in joints)
     return RawSkeleton(name=path.name.split(".")[0], source=str(path), joints=records, units="cm", up="y")

@@ -16,6 +16,8 @@ from pathlib import Path
 
 from quadpipe.anatomy.limits import JointLimit, JointLimits, from_degrees
 from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.limits import MAX_TABLE_FILE_BYTES
+from quadpipe.core.textfiles import read_text
 
 COLUMNS = ("bone", "twistmin", "twistmax", "swing1", "swing2")
 COLUMN_ALIASES = {"os": "bone", "name": "bone", "role": "bone"}
@@ -35,10 +37,7 @@ def read_limits(path: str | Path) -> JointLimits:
     """
     path = Path(path)
     source = str(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise QuadpipeError.single("file-unreadable", f"cannot read {path}: {exc}", file=source) from None
+    text = read_text(path, MAX_TABLE_FILE_BYTES)
     delimiter = "\t" if path.suffix.lower() == ".tsv" else ","
     rows = [
         (number, cells)

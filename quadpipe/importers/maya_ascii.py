@@ -33,8 +33,11 @@ from pathlib import Path
 import numpy as np
 
 from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
-from quadpipe.core.errors import QuadpipeError, did_you_mean
-from quadpipe.importers.maya_mel import MelScript, Token, flag_values, read_text, strip_type_flag
+from quadpipe.core import limits
+from quadpipe.core.errors import Location, QuadpipeError, did_you_mean
+from quadpipe.core.textfiles import read_text
+from quadpipe.importers.maya_matrices import euler_matrix, scale_matrix, shear_matrix, translation_matrix
+from quadpipe.importers.maya_mel import MelScript, Token, flag_values, strip_type_flag
 
 MAYA_HEADER = "//Maya"
 """Maya refuses `.ma` files that do not start with these six characters."""
@@ -126,7 +129,12 @@ class _Node:
     @property
     def path(self) -> str:
         """Full DAG path, `|group|joint`."""
-        return (self.parent.path if self.parent else "") + "|" + self.name
+        names = []
+        node: _Node | None = self
+        while node is not None:
+            names.append(node.name)
+            node = node.parent
+        return "|" + "|".join(reversed(names))
 
     def vector(self, key: str) -> np.ndarray:
         """An attribute's three values, or its default."""
@@ -140,6 +148,8 @@ class _Reader(MelScript):
     def __init__(self, source: str, text: str) -> None:
         super().__init__(source, text)
         self.nodes: list[_Node] = []
+        self.nodes_named: dict[str, list[_Node]] = {}
+        self.joint_count = 0
         self.current: _Node | None = None
         self.unit = "cm"
         self.unit_factor = 1.0
@@ -214,7 +224,12 @@ class _Reader(MelScript):
             )
         parent = self.resolve(parent_ref, what="parent") if parent_ref is not None else None
         node = _Node(name.text, kind, parent, statement[0].line)
+        if kind == "joint":
+            self.joint_count += 1
+            if self.joint_count > limits.MAX_JOINTS.value:
+                raise limits.MAX_JOINTS.exceeded(where=Location(self.source, name.line, name.column))
         self.nodes.append(node)
+        self.nodes_named.setdefault(node.name, []).append(node)
         self.current = node
 
     def select(self, statement: list[Token]) -> None:
@@ -291,11 +306,13 @@ class _Reader(MelScript):
         return matches[0] if len(matches) == 1 else None
 
     def matches(self, ref: str) -> list[_Node]:
+        """The tracked nodes a name, a partial DAG path (`a|b`) or a full one (`|a|b`) names."""
+        named = self.nodes_named.get(ref.rsplit("|", 1)[-1], [])
         if ref.startswith("|"):
-            return [n for n in self.nodes if n.path == ref]
+            return [n for n in named if n.path == ref]
         if "|" in ref:
-            return [n for n in self.nodes if n.path.endswith("|" + ref)]
-        return [n for n in self.nodes if n.name == ref]
+            return [n for n in named if n.path.endswith("|" + ref)]
+        return list(named)
 
     def resolve(self, token: Token, *, what: str) -> _Node:
         matches = self.matches(token.text)
@@ -368,66 +385,30 @@ def _unique_names(joints: list[_Node]) -> dict[int, str]:
     return {id(j): j.name if counts[j.name] == 1 else j.path for j in joints}
 
 
-def axis_rotation(axis: str, angle: float) -> np.ndarray:
-    """Maya's 4x4 rotation about one axis, for row vectors (`p' = p * M`)."""
-    c, s = math.cos(angle), math.sin(angle)
-    i, j = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}[axis]
-    matrix = np.eye(4)
-    matrix[i, i] = matrix[j, j] = c
-    matrix[i, j] = s
-    matrix[j, i] = -s
-    return matrix
-
-
-def euler_matrix(angles: np.ndarray, order: str = "xyz") -> np.ndarray:
-    """Rotation from Euler angles (radians) applied in `order`: xyz is RX * RY * RZ."""
-    matrix = np.eye(4)
-    for axis in order:
-        matrix = matrix @ axis_rotation(axis, float(angles["xyz".index(axis)]))
-    return matrix
-
-
-def _translation(vector: np.ndarray) -> np.ndarray:
-    matrix = np.eye(4)
-    matrix[3, :3] = vector
-    return matrix
-
-
-def _scale(vector: np.ndarray) -> np.ndarray:
-    return np.diag([*vector, 1.0])
-
-
-def _shear(values: np.ndarray) -> np.ndarray:
-    xy, xz, yz = values
-    matrix = np.eye(4)
-    matrix[1, 0], matrix[2, 0], matrix[2, 1] = xy, xz, yz
-    return matrix
-
-
 def local_matrix(node: _Node) -> np.ndarray:
     """A node's matrix relative to its parent, by Maya's formula for joints or transforms."""
     rotate_axis = euler_matrix(node.vector("ra"))
     rotate = euler_matrix(node.vector("r"), node.rotate_order)
-    scale = _scale(node.vector("s"))
-    translate = _translation(node.vector("t"))
+    scale = scale_matrix(node.vector("s"))
+    translate = translation_matrix(node.vector("t"))
     if node.kind == "joint":
         inverse_scale = np.eye(4)
         if node.scale_compensate and node.scale_source is not None:
-            inverse_scale = np.linalg.inv(_scale(node.scale_source.vector("s")))
+            inverse_scale = np.linalg.inv(scale_matrix(node.scale_source.vector("s")))
         return scale @ rotate_axis @ rotate @ euler_matrix(node.vector("jo")) @ inverse_scale @ translate
-    scale_pivot = _translation(node.vector("sp"))
-    rotate_pivot = _translation(node.vector("rp"))
+    scale_pivot = translation_matrix(node.vector("sp"))
+    rotate_pivot = translation_matrix(node.vector("rp"))
     return (
         np.linalg.inv(scale_pivot)
         @ scale
-        @ _shear(node.vector("sh"))
+        @ shear_matrix(node.vector("sh"))
         @ scale_pivot
-        @ _translation(node.vector("spt"))
+        @ translation_matrix(node.vector("spt"))
         @ np.linalg.inv(rotate_pivot)
         @ rotate_axis
         @ rotate
         @ rotate_pivot
-        @ _translation(node.vector("rpt"))
+        @ translation_matrix(node.vector("rpt"))
         @ translate
     )
 
@@ -440,7 +421,7 @@ def read_skeleton(path: str | Path) -> RawSkeleton:
             number or value, an unknown or ambiguous parent, an unknown unit.
     """
     path = Path(path)
-    text = read_text(path)
+    text = read_text(path, limits.MAX_SKELETON_FILE_BYTES)
     reader = _Reader(str(path), text)
     if not text.startswith(MAYA_HEADER):
         reader.fail(

@@ -12,7 +12,6 @@ import math
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass
-from pathlib import Path
 from typing import NoReturn
 
 from quadpipe.core.errors import QuadpipeError
@@ -173,15 +172,3 @@ def strip_type_flag(values: list[Token]) -> list[Token]:
         else:
             kept.append(token)
     return kept
-
-
-def read_text(path: Path) -> str:
-    """A file's text: UTF-8, or Latin-1 when it is not."""
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise QuadpipeError.single("file-unreadable", f"cannot read {path}: {exc.strerror}", file=str(path)) from None
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        return data.decode("latin-1")

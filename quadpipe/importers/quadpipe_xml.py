@@ -18,7 +18,9 @@ from typing import NoReturn
 from xml.parsers import expat
 
 from quadpipe.anatomy.skeleton import UNIT_TO_METRES, UP_AXES, JointRecord, RawSkeleton
-from quadpipe.core.errors import QuadpipeError, did_you_mean
+from quadpipe.core import limits
+from quadpipe.core.errors import Location, QuadpipeError, did_you_mean
+from quadpipe.core.textfiles import read_text
 
 FORMAT_VERSION = "1"
 JOINT_ATTRIBUTES = {"name", "parent", "role", "position", "axis", "end"}
@@ -38,10 +40,9 @@ def read_skeleton(path: str | Path) -> RawSkeleton:
     parser.StartElementHandler = lambda tag, attrs: elements.append(
         (tag, attrs, parser.CurrentLineNumber, parser.CurrentColumnNumber + 1)
     )
+    text = read_text(path, limits.MAX_SKELETON_FILE_BYTES)
     try:
-        parser.Parse(path.read_bytes(), True)
-    except OSError as exc:
-        raise QuadpipeError.single("file-unreadable", f"cannot read {path}: {exc.strerror}", file=source) from None
+        parser.Parse(text, True)
     except expat.ExpatError as exc:
         raise QuadpipeError.single(
             "malformed-xml",
@@ -63,6 +64,9 @@ def read_skeleton(path: str | Path) -> RawSkeleton:
     if up not in UP_AXES:
         _fail(source, line, column, "bad-up-axis", f"up axis {up!r} unknown", "use 'y' or 'z'")
 
+    if len(elements) > limits.MAX_JOINTS.value + 1:
+        _, _, line, column = elements[int(limits.MAX_JOINTS.value) + 1]
+        raise limits.MAX_JOINTS.exceeded(len(elements) - 1, where=Location(source, line, column))
     joints = []
     for tag, attrs, line, column in elements[1:]:
         if tag != "joint":

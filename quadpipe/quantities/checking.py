@@ -9,13 +9,18 @@ inlined where they are used, so a checked expression is self-contained.
 from __future__ import annotations
 
 import ast
+import math
+import sys
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
+import numpy as np
+
 from quadpipe.anatomy.roles import LEGS, PARENT, ROLES
 from quadpipe.core.errors import did_you_mean
+from quadpipe.core.limits import MAX_EXPRESSION_DEPTH
 from quadpipe.quantities import units
 from quadpipe.quantities.evaluation import Compiled, compile_expr, evaluate_constant
 from quadpipe.quantities.functions import FUNCTIONS, LOCAL_HELP, LOCAL_NAMES, SPECIAL_ARGUMENT_FUNCTIONS
@@ -35,6 +40,8 @@ from quadpipe.quantities.nodes import (
     Expr,
     ExprError,
     Type,
+    limit_error,
+    nesting_depth,
     point_key,
 )
 from quadpipe.quantities.parsing import parse
@@ -95,8 +102,7 @@ class _Checker:
         return method(node)
 
     def _constant(self, node: ast.Constant) -> Expr:
-        assert isinstance(node.value, (int, float)), "parsing lets only numbers appear literally"
-        return Expr("num", NUMBER, value=float(node.value))
+        return Expr("num", NUMBER, value=finite_number(node.value, self.text))
 
     def _name(self, node: ast.Name) -> Expr:
         name = node.id
@@ -233,7 +239,10 @@ class _Checker:
                 "a quantity with a unit can only be raised to a constant power",
                 "write HP^2, not HP^k with k changing",
             )
-        power = Fraction(float(evaluate_constant(exponent))).limit_denominator(1000)
+        with np.errstate(all="ignore"):
+            value = evaluate_constant(exponent)
+        _need_finite(value, self.text)
+        power = Fraction(float(value)).limit_denominator(1000)
         return Expr("pow", Type(SCALAR, base.type.dim**power), (base, Expr("num", NUMBER, value=float(power))))
 
     def _boolop(self, node: ast.BoolOp) -> Expr:
@@ -392,7 +401,7 @@ def check(value: Any, namespace: Namespace) -> Expr:
     if isinstance(value, bool):
         raise ExprError("wrong-type", f"expected a value, got {str(value).lower()}", "write a number, e.g. 1 or 20 deg")
     if isinstance(value, (int, float)):
-        return Expr("num", NUMBER, value=float(value), text=str(value))
+        return Expr("num", NUMBER, value=finite_number(value, str(value)), text=str(value))
     if isinstance(value, list):
         items = [check(item, namespace) for item in value]
         vector = make_vector(items, str(value))
@@ -400,7 +409,76 @@ def check(value: Any, namespace: Namespace) -> Expr:
     if not isinstance(value, str):
         raise ExprError("wrong-type", f"expected a value, got {type(value).__name__}")
     node = _Checker(namespace, value).check(parse(value))
+    depth = nesting_depth(node, lambda expr: expr.args)
+    if depth > MAX_EXPRESSION_DEPTH.value:
+        raise limit_error(MAX_EXPRESSION_DEPTH, depth)
+    refuse_bad_constants(node, value)
     return Expr(node.op, node.type, node.args, node.value, text=value)
+
+
+def finite_number(value: Any, text: str) -> float:
+    """A literal number as a float; infinite or NaN ones (`1e309`, `.inf`, `.nan`) are refused.
+
+    Raises:
+        ExprError: `non-finite-number`.
+    """
+    try:
+        number = float(value)
+    except OverflowError:
+        number = math.inf
+    if not math.isfinite(number):
+        raise ExprError(
+            "non-finite-number",
+            f"{text if len(text) <= 40 else text[:20] + '...' + text[-8:]!r} is not a finite number",
+            f"write a number between -{sys.float_info.max:.3g} and {sys.float_info.max:.3g}",
+        )
+    return number
+
+
+def refuse_bad_constants(expr: Expr, text: str) -> None:
+    """Refuse a division by a constant zero, and a constant part whose value is not finite.
+
+    A part is constant when it needs neither the simulation nor the animal (`10^10^10`,
+    `1e308 * 1e308`); each is evaluated once, innermost first. Parts that depend on the
+    animal (`0.5 bw / 0`) are only checked for a zero divisor.
+
+    Raises:
+        ExprError: `division-by-zero` or `non-finite-number`.
+    """
+    seen: set[int] = set()
+    stack = [expr]
+    order: list[Expr] = []
+    while stack:
+        node = stack.pop()
+        if id(node) not in seen:
+            seen.add(id(node))
+            order.append(node)
+            stack.extend(node.args)
+    with np.errstate(all="ignore"):
+        for node in reversed(order):
+            if node.op == "div" and _is_fixed(node.args[1]) and np.all(evaluate_constant(node.args[1]) == 0):
+                raise ExprError(
+                    "division-by-zero",
+                    f"in {text!r}: this divides by zero",
+                    "a divisor that is always zero is a mistake: check the number after '/'",
+                )
+            if node.op not in ("num", "unit") and _is_fixed(node) and node.type.kind != BOOL:
+                _need_finite(evaluate_constant(node), text)
+
+
+def _need_finite(value: np.ndarray, text: str) -> None:
+    """Refuse the value of a constant part of `text` when it is not finite (it overflowed)."""
+    if not np.all(np.isfinite(value)):
+        raise ExprError(
+            "non-finite-number",
+            f"in {text!r}: a constant part overflows: its value is not a finite number",
+            f"keep every value between -{sys.float_info.max:.3g} and {sys.float_info.max:.3g}",
+        )
+
+
+def _is_fixed(expr: Expr) -> bool:
+    """Whether a node's value is known without the simulation or the animal."""
+    return expr.is_constant and not expr.uses_scale
 
 
 def _list_text(value: list[Any]) -> str:

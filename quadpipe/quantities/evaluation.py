@@ -16,7 +16,8 @@ The simulation state reaches an expression through `env`, a mapping of keys to a
 
 `Compiled.needs` lists the keys an expression reads, so a runtime computes only those.
 Division by zero gives 0 and `normalize` of a zero vector gives zero: a degenerate pose
-yields no force rather than a NaN (which would make MuJoCo reset silently).
+yields no force rather than a NaN (which would make MuJoCo reset silently). A divisor that is
+always zero, and constant parts that overflow, are refused when the expression is checked.
 """
 
 from __future__ import annotations

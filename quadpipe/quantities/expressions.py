@@ -26,7 +26,8 @@ The simulation state reaches an expression through `env`, a mapping of keys to a
 
 `Compiled.needs` lists the keys an expression reads, so a runtime computes only those.
 Division by zero gives 0 and `normalize` of a zero vector gives zero: a degenerate pose
-yields no force rather than a NaN (which would make MuJoCo reset silently).
+yields no force rather than a NaN (which would make MuJoCo reset silently). A divisor that is
+always zero, and constant parts that overflow, are refused when the expression is checked.
 
 This module gathers the language's public names; the work is done in
 `nodes.py` (types, `Expr`, env keys), `functions.py` (the function table), `parsing.py`

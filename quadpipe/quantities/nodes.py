@@ -9,10 +9,12 @@ with a stable code. The env keys an expression reads are named here too (see
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import Any, TypeVar
 
+from quadpipe.core.limits import Limit
 from quadpipe.quantities import units
 
 SCALAR, VECTOR, BOOL = "scalar", "vector", "bool"
@@ -48,6 +50,29 @@ class ExprError(Exception):
         self.code = code
         self.message = message
         self.hint = hint
+
+
+def limit_error(limit: Limit, amount: float | None = None) -> ExprError:
+    """The `limit-exceeded` error of an expression over `limit` (located by the caller)."""
+    return ExprError("limit-exceeded", limit.message(amount), limit.hint)
+
+
+NodeT = TypeVar("NodeT")
+
+
+def nesting_depth(root: NodeT, children: Callable[[NodeT], Sequence[NodeT]]) -> int:
+    """Levels of a tree (1 for a leaf), without recursion; shared subtrees are measured once."""
+    depth: dict[int, int] = {}
+    stack = [root]
+    while stack:
+        node = stack[-1]
+        pending = [child for child in children(node) if id(child) not in depth]
+        if pending:
+            stack.extend(pending)
+            continue
+        stack.pop()
+        depth[id(node)] = 1 + max((depth[id(child)] for child in children(node)), default=0)
+    return depth[id(root)]
 
 
 @dataclass(frozen=True)

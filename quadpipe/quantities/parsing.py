@@ -13,8 +13,9 @@ import io
 import tokenize
 from typing import Any
 
+from quadpipe.core.limits import MAX_EXPRESSION_DEPTH, MAX_EXPRESSION_LENGTH
 from quadpipe.quantities import units
-from quadpipe.quantities.nodes import ExprError
+from quadpipe.quantities.nodes import ExprError, limit_error, nesting_depth
 
 
 def _is_unit_token(tokens: list[tokenize.TokenInfo], i: int) -> bool:
@@ -132,6 +133,8 @@ def parse(text: str) -> ast.expr:
     """
     if not text.strip():
         raise ExprError("expression-syntax", "the expression is empty", "write a number with a unit, like `2 cm`")
+    if len(text) > MAX_EXPRESSION_LENGTH.value:
+        raise limit_error(MAX_EXPRESSION_LENGTH, len(text))
     code = rewrite(text)
     try:
         tree = ast.parse(code, mode="eval")
@@ -139,6 +142,12 @@ def parse(text: str) -> ast.expr:
         raise ExprError(
             "expression-syntax", f"cannot read the expression {text!r}: {exc.msg}", _syntax_hint(text)
         ) from None
+    except (RecursionError, MemoryError):
+        raise limit_error(MAX_EXPRESSION_DEPTH) from None
+    body: ast.AST = tree.body
+    depth = nesting_depth(body, lambda node: list(ast.iter_child_nodes(node)))
+    if depth > MAX_EXPRESSION_DEPTH.value:
+        raise limit_error(MAX_EXPRESSION_DEPTH, depth)
     for node in ast.walk(tree):
         if not isinstance(node, _ALLOWED_NODES):
             raise ExprError(

@@ -46,7 +46,8 @@ class Controller(Protocol):
     """What the loop needs from a controller: a name, and forces applied before each step.
 
     A controller may also offer `frame_values(data) -> dict[str, array]`: values recorded into
-    the clip's `sensors` once per frame.
+    the clip's `sensors` once per frame, and `fault`: a description of a force it could not
+    compute (NaN or infinite), which stops the simulation at the end of the frame.
     """
 
     name: str
@@ -278,8 +279,17 @@ class Simulation:
         return values
 
     def check_health(self, frame: int, fps: float = sizing.FRAME_RATE) -> None:
-        """Raise `SimulationBlowUp` if the state is not finite, MuJoCo warned, or a body flew away."""
+        """Raise `SimulationBlowUp` if a controller computed a non-finite force, the state is not
+        finite, MuJoCo warned, or a body flew away."""
         data = self.data
+        fault = next((f for c in self.controllers if (f := getattr(c, "fault", None))), None)
+        if fault is not None:
+            raise SimulationBlowUp.single(
+                "non-finite-force",
+                f"the simulation stopped at frame {frame} (t = {frame / fps:.2f} s): {fault}",
+                hint="an expression of that element gave no number (a negative number raised to a fraction, "
+                "exp of a large value): check its values, e.g. with clamp()",
+            )
         problem = None
         if not physics.is_finite(data):
             problem = "positions or velocities became NaN or infinite"

@@ -21,6 +21,7 @@ from typing import Annotated, Any, Literal, Union
 import pydantic
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
 
+from quadpipe.core.yamlio import Name
 from quadpipe.quantities import fields, units
 from quadpipe.quantities.expressions import SCALAR, VECTOR, Expect
 from quadpipe.quantities.fields import (
@@ -454,7 +455,7 @@ class SceneFile(_Model):
     schema_: Annotated[
         int, Field(alias="schema", description=f"Format version; this quadpipe reads `{SCHEMA_VERSION}`.")
     ]
-    name: Annotated[str, Field(description="Name of the scene, as used on the command line.")]
+    name: Annotated[Name, Field(description="Name of the scene, as used on the command line.")]
     description: Annotated[str, Field("", description="One line for `quadpipe scenes`.")]
     ground: Annotated[
         GroundField, Field(default_factory=Ground, description="The floor (`{friction: 1.0}`), or `none` for no floor.")

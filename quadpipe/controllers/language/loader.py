@@ -81,6 +81,11 @@ def pydantic_issues(
             issues.append(
                 Issue("missing-key", f"required key {loc[-1]!r} is missing in {where}", locate(loc[:-1], False))
             )
+        elif loc and loc[-1] == "[key]":
+            message = err["msg"].removeprefix("Value error, ")
+            issues.append(
+                Issue("invalid-value", f"a key in {_where_in(label, loc[:-2])}: {message}", locate(loc[:-1], True))
+            )
         else:
             message = err["msg"].removeprefix("Value error, ")
             issues.append(Issue("invalid-value", f"{_where_in(label, loc)}: {message}", locate(loc, False)))
@@ -209,6 +214,16 @@ def _raw_elements(doc: YamlDocument, issues: list[Issue]) -> list[tuple[tuple[An
                 )
             )
             continue
+        if not isinstance(kind, str):
+            issues.append(
+                Issue(
+                    "invalid-value",
+                    f"element {index + 1}'s `type` must be a name, not {_kind_of_value(kind)}",
+                    doc.locate(path + ("type",)),
+                    f"valid: {', '.join(MODEL_OF_TYPE)}",
+                )
+            )
+            continue
         if kind not in MODEL_OF_TYPE:
             issues.append(
                 Issue(
@@ -230,6 +245,15 @@ def _raw_elements(doc: YamlDocument, issues: list[Issue]) -> list[tuple[tuple[An
             continue
         found.append((path, raw))
     return found
+
+
+def _kind_of_value(value: Any) -> str:
+    """What a YAML value is, for a message: `a mapping`, `a list`, `a number`."""
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, list):
+        return "a list"
+    return "a yes/no value" if isinstance(value, bool) else "a number"
 
 
 # --------------------------------------------------------------------------- templates

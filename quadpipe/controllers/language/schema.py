@@ -16,6 +16,7 @@ from typing import Annotated, Any, Literal, Union, get_args
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, PlainValidator, WithJsonSchema
 
 from quadpipe.anatomy.roles import LEGS, ROLES
+from quadpipe.core.yamlio import Name
 from quadpipe.quantities import units
 from quadpipe.quantities.expressions import BOOL, LEG_LANDMARKS, POINT_ANCHORS, SCALAR, VECTOR, Expect
 from quadpipe.quantities.fields import ANGLE, LENGTH, POINT, TIME, AnyValue, Value, quantity
@@ -308,7 +309,7 @@ FOR_EACH_HELP = "legs (`lf`, `rf`, `lh`, `rh`) or groups (`all_legs`, `front_leg
 
 
 class _Element(_Model):
-    name: Annotated[str, Field(description="Unique name of the element; with `for_each` it must contain `{leg}`.")]
+    name: Annotated[Name, Field(description="Unique name of the element; with `for_each` it must contain `{leg}`.")]
     description: Annotated[str, Field("", description="What the element does, for animators.")]
     for_each: Annotated[
         Names | None,
@@ -558,7 +559,7 @@ class ControllerFile(_Model):
     schema_: Annotated[
         int, Field(alias="schema", description=f"Version of this file format; write `{SCHEMA_VERSION}`.")
     ]
-    name: Annotated[str, Field(description="Name of the controller, as used on the command line.")]
+    name: Annotated[Name, Field(description="Name of the controller, as used on the command line.")]
     description: Annotated[str, Field("", description="What the controller does, for animators.")]
     extends: Annotated[
         str | None,
@@ -568,14 +569,14 @@ class ControllerFile(_Model):
         ),
     ]
     tunables: Annotated[
-        dict[str, TunableField],
+        dict[Name, TunableField],
         Field(
             {},
             description="The knobs of the controller: named constants with a description and a range, used by the elements like parameters and set like them (`--set name=value`, a scene's `parameters:`).",
         ),
     ]
     parameters: Annotated[
-        dict[str, ParameterField],
+        dict[Name, ParameterField],
         Field(
             {},
             description="Named values used by the elements: derived values and formulas (tune the controller with its `tunables`). A value is a number with a unit, a vector or an expression.",

@@ -88,6 +88,10 @@ SMOOTH, ADVANCE, TRANSITION = 80, 81, 82
 # SPRING(dst = spring, a = target angle, b = stiffness, c = damping).
 FORCE, SPRING = 90, 91
 
+NO_FAULT = -1
+"""What `run` returns when every force and spring value was finite; else it returns the first
+force slot with a non-finite force, or the number of slots plus the first such spring."""
+
 CODE_WIDTH = 7
 """Columns of an instruction: op, dst, a, b, c, d, e."""
 
@@ -256,8 +260,10 @@ def _unit_into(out: np.ndarray, x: float, y: float, z: float) -> None:
     length = math.sqrt(x * x + y * y + z * z)
     if length > ZERO_NORM:
         out[0], out[1], out[2] = x / length, y / length, z / length
-    else:
+    elif length == length:
         out[0], out[1], out[2] = 0.0, 0.0, 0.0
+    else:  # a NaN direction stays NaN, for FORCE to report (not a silent zero force)
+        out[0], out[1], out[2] = math.nan, math.nan, math.nan
 
 
 @numba.njit(cache=True)
@@ -336,7 +342,7 @@ def run(
     qpos: np.ndarray, qfrc: np.ndarray, xfrc: np.ndarray, dof_damping: np.ndarray,
     first: int, last: int, finish: bool, time: float, ncon: int,
     contact_geoms: np.ndarray, contact_frames: np.ndarray,
-) -> None:  # fmt: skip
+) -> int:  # fmt: skip
     """Run instructions `first` to `last` of a controller program (see the module docstring).
 
     `integers` and `reals` hold the runtime's tables and state (`INTEGER_ARRAYS` and
@@ -344,6 +350,9 @@ def run(
     added into `xfrc` and `qfrc`, damping written into `dof_damping`). The last seven
     arguments change every call; `contact_geoms` and `contact_frames` have `ncon` rows (or
     more: the rest is ignored).
+
+    A force or spring value that is NaN or infinite is not applied: `run` returns where it
+    was (see `NO_FAULT`), for the runtime to report.
     """
     n = reg.shape[1]
     point_body, frame_body = (
@@ -378,6 +387,7 @@ def run(
     if finish:
         slot_force[:] = 0.0
         damping[:] = 0.0
+    fault = NO_FAULT
     pc = first
     while pc < last:
         op, dst, a, b, c, d, e = (
@@ -521,6 +531,9 @@ def run(
             for i in range(n):
                 body = slot_body[dst, i]
                 fx, fy, fz = sign * reg[b, i, 0], sign * reg[b, i, 1], sign * reg[b, i, 2]
+                if not (math.isfinite(fx) and math.isfinite(fy) and math.isfinite(fz)):
+                    fault = dst if fault == NO_FAULT else fault
+                    fx, fy, fz = 0.0, 0.0, 0.0
                 for k in range(3):
                     slot_point[dst, i, k] = reg[a, i, k]
                 slot_force[dst, i, 0], slot_force[dst, i, 1], slot_force[dst, i, 2] = fx, fy, fz
@@ -535,9 +548,13 @@ def run(
             for j in range(spring_start[dst], spring_start[dst + 1]):
                 for i in range(n):
                     target = reg[a, i, 0] if spring_twist[j, i] != 0 else 0.0
+                    if not (math.isfinite(target) and math.isfinite(reg[b, i, 0]) and math.isfinite(reg[c, i, 0])):
+                        fault = slot_force.shape[0] + dst if fault == NO_FAULT else fault
+                        continue
                     qfrc[spring_dof[j, i]] += -reg[b, i, 0] * (qpos[spring_qpos[j, i]] - target)
                     damping[spring_dof[j, i]] += reg[c, i, 0]
     if finish:
         for dof in range(dof_damping.shape[0]):
             dof_damping[dof] = base_damping[dof] + damping[dof]
         time_in_state += dt
+    return fault

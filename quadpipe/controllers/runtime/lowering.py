@@ -152,6 +152,8 @@ class Program:
         cycles: cycle element names (row of the phase table).
         machines: machine name -> its state names (row of the state table).
         sensor_end: first instruction after the sensors (a run to there only refreshes them).
+        slot_elements: the element that made each force slot.
+        spring_elements: the element that made each spring instruction.
     """
 
     code: np.ndarray
@@ -166,6 +168,8 @@ class Program:
     cycles: list[str]
     machines: dict[str, list[str]]
     sensor_end: int
+    slot_elements: list[str] = field(default_factory=list)
+    spring_elements: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -199,6 +203,8 @@ class _Lowerer:
         self.frames: list[str] = []
         self.springs: list[tuple[str, ...]] = []
         self.slots: list[tuple[str, str]] = []
+        self.slot_elements: list[str] = []
+        self.spring_elements: list[str] = []
         self.sensors: dict[str, tuple[int, bool]] = {}
         self.heights: list[tuple[int, str]] = []
         self.cycles = [name for name, e in compiled.elements.items() if e.type == "cycle"]
@@ -434,6 +440,13 @@ class _Lowerer:
         self.emit(FORCE, len(self.slots) - 1, at, force, e=int(negate))
 
     def form(self, element: CompiledElement, mask: int | None) -> None:
+        """Lower one form of an element, noting it as the maker of its force slots and springs."""
+        slots, springs = len(self.slots), len(self.springs)
+        self.lower_form(element, mask)
+        self.slot_elements += [element.name] * (len(self.slots) - slots)
+        self.spring_elements += [element.name] * (len(self.springs) - springs)
+
+    def lower_form(self, element: CompiledElement, mask: int | None) -> None:
         spec = element.spec
         kind = element.type
         if kind == "spring":
@@ -552,6 +565,7 @@ class _Lowerer:
         return Program(
             code, self.registers, self.constants, self.points, self.frames, self.springs, self.slots,
             self.sensors, self.heights, self.cycles, self.machines, sensor_end,
+            slot_elements=self.slot_elements, spring_elements=self.spring_elements,
         )  # fmt: skip
 
 

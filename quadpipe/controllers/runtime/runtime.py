@@ -32,7 +32,7 @@ import numpy as np
 from quadpipe.anatomy.roles import FOOT_BONES, LEGS, ROLES
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
-from quadpipe.controllers.runtime.kernel import HEADING_MIN_NORM, INTEGER_ARRAYS, REAL_ARRAYS, pack, run
+from quadpipe.controllers.runtime.kernel import HEADING_MIN_NORM, INTEGER_ARRAYS, NO_FAULT, REAL_ARRAYS, pack, run
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.world.placement import Placement
@@ -102,6 +102,8 @@ class ControllerRuntime:
         self._reals, self._real_layout, real_views = pack(arrays, REAL_ARRAYS, np.float64)
         self._arrays = integer_views | real_views
         self._last: AppliedForces | None = None
+        self.fault: str | None = None
+        """The first non-finite force or spring value an element computed (None: none so far)."""
         self._fixed_for: mujoco.MjData | None = None
         self._fixed: _FixedArguments  # set with `_fixed_for` by `_arguments`
         self._few_contacts = (np.zeros((1, 4), np.int32)[:, ::2], np.zeros((1, 18))[:, ::2])
@@ -266,7 +268,18 @@ class ControllerRuntime:
         if self.program.heights:
             self._heights(data)
         ncon = data.ncon
-        run(*self._arguments(data), 0, last, finish, data.time, ncon, *self._contact_arrays(data, ncon))
+        fault = run(*self._arguments(data), 0, last, finish, data.time, ncon, *self._contact_arrays(data, ncon))
+        if fault != NO_FAULT and self.fault is None:
+            self.fault = self._describe_fault(fault)
+
+    def _describe_fault(self, fault: int) -> str:
+        """Say which element computed a non-finite value (`fault` as `kernel.run` returns it)."""
+        program = self.program
+        if fault < len(program.slots):
+            element, what = program.slot_elements[fault], f"a force at {program.slots[fault][0]}"
+        else:
+            element, what = program.spring_elements[fault - len(program.slots)], "a spring target, stiffness or damping"
+        return f"element {element!r} of {self.name} computed {what} that is NaN or infinite"
 
     def _contact_arrays(self, data: mujoco.MjData, ncon: int) -> tuple[np.ndarray, np.ndarray]:
         """The geoms and frames of the contacts: views into MuJoCo's contact structs.
