@@ -1,0 +1,167 @@
+"""The bad-input corpus: every case is a bad input a user or a CI job may give, and its answer.
+
+Each case is a folder `tests/fixtures/bad_corpus/<group>/<case>/` holding:
+
+- `case.yaml`: `args` (the command line after `quadpipe`), optionally `exit` (default 1),
+  `timeout_s` (default 60: a hang fails the case), `stdin`, `env` (extra variables), `creates`
+  (files the command may leave, e.g. a valid output next to a refused one), `generate` (inputs
+  too big or too binary to commit, made by a named recipe in `GENERATORS`, e.g.
+  `{file: big.xml, recipe: many_joints_xml, count: 10000}`);
+- `expected.txt`: the exact standard error (`{tmp}` stands for the case's folder);
+- its input files, copied into a fresh folder where the command runs.
+
+Each case must end with its expected exit code and message, without a Python traceback or a
+numpy/MuJoCo warning, within its time limit, and leave nothing behind: no file in its folder
+beyond its inputs and `creates`, nothing in its private temporary directory (`TMPDIR`), and no
+`MUJOCO_LOG.TXT`.
+
+Regenerate the expected messages after a deliberate wording change with
+`QUADPIPE_BLESS=1 .venv/bin/python -m pytest tests/test_bad_corpus.py`, then read the diff.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+from tests.conftest import FIXTURES, REPO
+
+CORPUS = FIXTURES / "bad_corpus"
+DEFAULT_TIMEOUT_S = 60.0
+"""A case still running after this long has hung."""
+
+LEAKS = ("Traceback (most recent call last)", "RuntimeWarning", "UserWarning", "DeprecationWarning")
+"""Text that must never reach a user: a traceback or a library warning."""
+
+
+def many_joints_xml(path: Path, count: int) -> None:
+    """A quadpipe skeleton XML with one chain of `count` joints."""
+    lines = ['<?xml version="1.0" encoding="utf-8"?>', '<skeleton name="long" units="cm" up="y" version="1">']
+    lines.append('  <joint name="j0" position="0 50 0" axis="1 0 0"/>')
+    lines += [f'  <joint name="j{i}" parent="j{i - 1}" position="0 50 {i}" axis="1 0 0"/>' for i in range(1, count)]
+    lines.append("</skeleton>")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def many_joints_ma(path: Path, count: int) -> None:
+    """A Maya ASCII file with one chain of `count` joints."""
+    lines = ["//Maya ASCII 2024 scene", 'requires maya "2024";', "currentUnit -l centimeter -a degree -t film;"]
+    for i in range(count):
+        parent = f' -p "j{i - 1}"' if i else ""
+        lines += [f'createNode joint -n "j{i}"{parent};', '\tsetAttr ".t" -type "double3" 1 0 0 ;']
+    path.write_text("\n".join(lines) + "\n")
+
+
+def alias_bomb_yaml(path: Path, levels: int) -> None:
+    """A "billion laughs" YAML document: each level repeats the one below nine times."""
+    lines = ['a0: &a0 ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
+    lines += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, levels)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def deep_yaml(path: Path, depth: int) -> None:
+    """A YAML document nested `depth` flow sequences deep."""
+    path.write_text("schema: 1\nname: deep\nparameters:\n  x: " + "[" * depth + "1" + "]" * depth + "\n")
+
+
+def binary_file(path: Path, size: int) -> None:
+    """`size` bytes that are not text in any encoding (seeded)."""
+    path.write_bytes(bytes((i * 131 + 7) % 256 for i in range(size)))
+
+
+def utf16_yaml(path: Path, text: str) -> None:
+    """`text` written as UTF-16 (with its byte order mark)."""
+    path.write_bytes(text.encode("utf-16"))
+
+
+def latin1_yaml(path: Path, text: str) -> None:
+    """`text` written as Latin-1 (not UTF-8 where it has accents)."""
+    path.write_bytes(text.encode("latin-1"))
+
+
+GENERATORS: dict[str, Callable[..., None]] = {
+    f.__name__: f
+    for f in (many_joints_xml, many_joints_ma, alias_bomb_yaml, deep_yaml, binary_file, utf16_yaml, latin1_yaml)
+}
+"""Recipes for inputs made at test time, by name."""
+
+
+def case_folders() -> list[Path]:
+    """Every case of the corpus, sorted (group/case)."""
+    return sorted(p.parent for p in CORPUS.glob("*/*/case.yaml"))
+
+
+def case_id(folder: Path) -> str:
+    return f"{folder.parent.name}/{folder.name}"
+
+
+def load_case(folder: Path) -> dict[str, Any]:
+    """A case's `case.yaml`, checked for its keys."""
+    case = yaml.safe_load((folder / "case.yaml").read_text())
+    unknown = set(case) - {"args", "exit", "timeout_s", "stdin", "env", "creates", "generate", "why"}
+    assert not unknown, f"{case_id(folder)}: unknown keys {sorted(unknown)}"
+    assert isinstance(case.get("args"), list), f"{case_id(folder)}: `args` must be a list"
+    return case
+
+
+def prepare(folder: Path, case: dict[str, Any], work: Path) -> set[str]:
+    """Copy the inputs into `work`, make the generated ones, and return the input file names."""
+    for item in folder.iterdir():
+        if item.name not in ("case.yaml", "expected.txt"):
+            (shutil.copytree if item.is_dir() else shutil.copy2)(item, work / item.name)
+    for spec in case.get("generate") or []:
+        spec = dict(spec)
+        GENERATORS[spec.pop("recipe")](work / spec.pop("file"), **spec)
+    return {str(p.relative_to(work)) for p in work.rglob("*")}
+
+
+@pytest.mark.parametrize("folder", case_folders(), ids=case_id)
+def test_bad_input_gets_its_one_clear_answer(folder: Path, tmp_path: Path) -> None:
+    case = load_case(folder)
+    work, private_tmp = tmp_path / "work", tmp_path / "tmp"
+    work.mkdir()
+    private_tmp.mkdir()
+    inputs = prepare(folder, case, work)
+    env = dict(os.environ, COLUMNS="200", NO_COLOR="1", TMPDIR=str(private_tmp), PYTHONPATH=str(REPO))
+    env.update({k: str(v) for k, v in (case.get("env") or {}).items()})
+    try:
+        result = subprocess.run(
+            [sys.executable, "-m", "quadpipe", *map(str, case["args"])],
+            cwd=work,
+            env=env,
+            input=case.get("stdin"),
+            capture_output=True,
+            text=True,
+            timeout=case.get("timeout_s", DEFAULT_TIMEOUT_S),
+        )
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"hung: still running after {case.get('timeout_s', DEFAULT_TIMEOUT_S)} s")
+    stderr = result.stderr.replace(str(work), "{tmp}")
+    expected_path = folder / "expected.txt"
+    if os.environ.get("QUADPIPE_BLESS"):
+        expected_path.write_text(stderr)
+    for leak in LEAKS:
+        assert leak not in result.stderr + result.stdout, f"{leak!r} reached the user:\n{result.stderr}"
+    assert result.returncode == case.get("exit", 1), result.stderr
+    assert stderr == expected_path.read_text()
+    left = {str(p.relative_to(work)) for p in work.rglob("*")} - inputs - set(case.get("creates") or [])
+    assert not left, f"left behind in the working folder: {sorted(left)}"
+    assert not list(private_tmp.iterdir()), f"left in TMPDIR: {sorted(p.name for p in private_tmp.iterdir())}"
+
+
+def test_the_corpus_covers_every_command_and_file_kind() -> None:
+    """At least 150 cases, and every command of the CLI is tried with bad input."""
+    from quadpipe.cli import app
+
+    commands = {c.name or c.callback.__name__ for c in app.registered_commands}  # type: ignore[union-attr]
+    tried = {str(load_case(f)["args"][0]) for f in case_folders() if load_case(f)["args"]}
+    assert len(case_folders()) >= 150
+    assert commands - tried == set(), f"commands never given bad input: {sorted(commands - tried)}"
