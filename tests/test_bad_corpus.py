@@ -7,7 +7,8 @@ Each case is a folder `tests/fixtures/bad_corpus/<group>/<case>/` holding:
   (files the command may leave, e.g. a valid output next to a refused one), `generate` (inputs
   too big or too binary to commit, made by a named recipe in `GENERATORS`, e.g.
   `{file: big.xml, recipe: many_joints_xml, count: 10000}`);
-- `expected.txt`: the exact standard error (`{tmp}` stands for the case's folder);
+- `expected.txt`: the exact standard error (`{tmp}` stands for the case's folder, `{repo}` for
+  the repository, where the shipped configs live);
 - its input files, copied into a fresh folder where the command runs.
 
 Each case must end with its expected exit code and message, without a Python traceback or a
@@ -87,9 +88,105 @@ def latin1_yaml(path: Path, text: str) -> None:
     path.write_bytes(text.encode("latin-1"))
 
 
+def deep_bvh(path: Path, depth: int) -> None:
+    """A BVH skeleton of one chain `depth` joints deep, with one frame of motion."""
+    lines = [
+        "HIERARCHY",
+        "ROOT j0",
+        "{",
+        "OFFSET 0 0 0",
+        "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation",
+    ]
+    for i in range(1, depth):
+        lines += [f"JOINT j{i}", "{", "OFFSET 0 1 0", "CHANNELS 3 Zrotation Xrotation Yrotation"]
+    lines += ["End Site", "{", "OFFSET 0 1 0", "}"] + ["}"] * depth
+    lines += ["MOTION", "Frames: 1", "Frame Time: 0.0333333", " ".join(["0"] * (3 + 3 * depth))]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def many_props_scene(path: Path, count: int) -> None:
+    """A scene of `count` small spheres in a row ahead of the animal."""
+    lines = ["schema: 1", "name: many_props", "props:"]
+    lines += [
+        f"  - {{name: p{i}, type: sphere, at: [{4 + i * 0.01:.2f} HP, 0, 0.1 HP], size: [0.05 HP], mass: 0.1 kg}}"
+        for i in range(count)
+    ]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def repeated_expression(path: Path, head: str, tail: str, count: int) -> None:
+    """The shipped `rigid` controller with its neck force written as head*count + `0.5 bw` + tail*count."""
+    text = (REPO / "configs" / "controllers" / "rigid.yaml").read_text()
+    assert "value: 0.5 bw" in text
+    path.write_text(text.replace("value: 0.5 bw", f"value: {head * count}0.5 bw{tail * count}", 1))
+
+
+def shipped(path: Path, source: str, replace: list[list[str]] | None = None) -> None:
+    """A copy of a file of the repository (`source`: `configs/animals/dog.yaml`), each `[old, new]`
+    of `replace` applied once.
+
+    Every `old` must occur in the file, so a case whose edit no longer applies fails loudly.
+    """
+    text = (REPO / source).read_text()
+    for old, new in replace or []:
+        assert old in text, f"{source} has no {old!r} to replace"
+        text = text.replace(old, new, 1)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+
+
+def folder(path: Path) -> None:
+    """An empty folder (git keeps none), e.g. a directory given where a file is expected."""
+    path.mkdir(parents=True)
+
+
+def clip_npz(
+    path: Path,
+    header: dict[str, Any] | None = None,
+    nan: list[str] | None = None,
+    frames: dict[str, int] | None = None,
+    drop: list[str] | None = None,
+) -> None:
+    """The corpus's base clip (`clips/base.npz`: the dog, 0.2 s of `rigid`, 7 frames) with edits.
+
+    `header`: top-level keys of the JSON header replaced; `nan`: arrays whose frame 3 becomes
+    NaN; `frames`: arrays cut to that many frames; `drop`: arrays left out.
+    """
+    import json
+
+    import numpy as np
+
+    with np.load(CORPUS / "clips" / "base.npz", allow_pickle=False) as clip:
+        arrays = {name: clip[name] for name in clip.files}
+    arrays["header"] = np.array(json.dumps(json.loads(str(arrays["header"])) | (header or {})))
+    for name in nan or []:
+        arrays[name] = arrays[name].astype(float)
+        arrays[name][3] = np.nan
+    for name, count in (frames or {}).items():
+        arrays[name] = arrays[name][:count]
+    for name in drop or []:
+        del arrays[name]
+    with path.open("wb") as out:
+        np.savez(out, **arrays)
+
+
 GENERATORS: dict[str, Callable[..., None]] = {
     f.__name__: f
-    for f in (many_joints_xml, many_joints_ma, alias_bomb_yaml, deep_yaml, binary_file, utf16_yaml, latin1_yaml)
+    for f in (
+        many_joints_xml,
+        many_joints_ma,
+        alias_bomb_yaml,
+        deep_yaml,
+        binary_file,
+        utf16_yaml,
+        latin1_yaml,
+        deep_bvh,
+        many_props_scene,
+        repeated_expression,
+        shipped,
+        folder,
+        clip_npz,
+    )
 }
 """Recipes for inputs made at test time, by name."""
 
@@ -144,7 +241,7 @@ def test_bad_input_gets_its_one_clear_answer(folder: Path, tmp_path: Path) -> No
         )
     except subprocess.TimeoutExpired:
         pytest.fail(f"hung: still running after {case.get('timeout_s', DEFAULT_TIMEOUT_S)} s")
-    stderr = result.stderr.replace(str(work), "{tmp}")
+    stderr = result.stderr.replace(str(work), "{tmp}").replace(str(REPO), "{repo}")
     expected_path = folder / "expected.txt"
     if os.environ.get("QUADPIPE_BLESS"):
         expected_path.write_text(stderr)
