@@ -7,11 +7,12 @@ Each case is a folder `tests/fixtures/bad_corpus/<group>/<case>/` holding:
   (files the command may leave, e.g. a valid output next to a refused one), `generate` (inputs
   too big or too binary to commit, made by a named recipe in `GENERATORS`, e.g.
   `{file: big.xml, recipe: many_joints_xml, count: 10000}`);
-- `expected.txt`: the exact standard error (`{tmp}` stands for the case's folder, `{repo}` for
-  the repository, where the shipped configs live);
+- `expected.txt`: the exact standard error, then the standard output if any after a line
+  `--- stdout ---` (`{tmp}` stands for the case's folder, `{repo}` for the repository);
 - its input files, copied into a fresh folder where the command runs.
 
-Each case must end with its expected exit code and message, without a Python traceback or a
+Each case runs in its own process group (a hung case is killed with its workers) and must end
+with its expected exit code and message, without a Python traceback or a
 numpy/MuJoCo warning, within its time limit, and leave nothing behind: no file in its folder
 beyond its inputs and `creates`, nothing in its private temporary directory (`TMPDIR`), and no
 `MUJOCO_LOG.TXT`.
@@ -22,8 +23,10 @@ Regenerate the expected messages after a deliberate wording change with
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
+import signal
 import subprocess
 import sys
 from collections.abc import Callable
@@ -121,16 +124,19 @@ def repeated_expression(path: Path, head: str, tail: str, count: int) -> None:
     path.write_text(text.replace("value: 0.5 bw", f"value: {head * count}0.5 bw{tail * count}", 1))
 
 
-def shipped(path: Path, source: str, replace: list[list[str]] | None = None) -> None:
+def shipped(path: Path, source: str, replace: list[list[str]] | None = None, cut: str | None = None) -> None:
     """A copy of a file of the repository (`source`: `configs/animals/dog.yaml`), each `[old, new]`
-    of `replace` applied once.
+    of `replace` applied once, and the copy ending right after the first `cut` (a truncated file).
 
-    Every `old` must occur in the file, so a case whose edit no longer applies fails loudly.
+    Every `old` and `cut` must occur in the file, so a case whose edit no longer applies fails loudly.
     """
     text = (REPO / source).read_text()
     for old, new in replace or []:
         assert old in text, f"{source} has no {old!r} to replace"
         text = text.replace(old, new, 1)
+    if cut is not None:
+        assert cut in text, f"{source} has no {cut!r} to cut after"
+        text = text[: text.index(cut) + len(cut)]
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
 
@@ -220,6 +226,42 @@ def prepare(folder: Path, case: dict[str, Any], work: Path) -> set[str]:
     return {str(p.relative_to(work)) for p in work.rglob("*")}
 
 
+STDOUT_MARK = "--- stdout ---\n"
+"""In `expected.txt`, what follows this line is the standard output (`validate` reports there)."""
+
+
+def shown(result: subprocess.CompletedProcess[str], work: Path) -> str:
+    """What the user saw: standard error, then standard output after `STDOUT_MARK` if there was any,
+    with the case's folder as `{tmp}` and the repository as `{repo}`."""
+    text = result.stderr + (STDOUT_MARK + result.stdout if result.stdout else "")
+    return text.replace(str(work), "{tmp}").replace(str(REPO), "{repo}")
+
+
+def run_quadpipe(case: dict[str, Any], work: Path, env: dict[str, str]) -> subprocess.CompletedProcess[str]:
+    """Run the case's command in its own process group; on a hang, kill the group (workers too) and fail."""
+    timeout = case.get("timeout_s", DEFAULT_TIMEOUT_S)
+    with subprocess.Popen(
+        [sys.executable, "-m", "quadpipe", *map(str, case["args"])],
+        cwd=work,
+        env=env,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    ) as process:
+        try:
+            stdout, stderr = process.communicate(case.get("stdin"), timeout=timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.communicate()
+            pytest.fail(f"hung: still running after {timeout} s")
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(process.pid, signal.SIGKILL)
+    return subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr)
+
+
 @pytest.mark.parametrize("folder", case_folders(), ids=case_id)
 def test_bad_input_gets_its_one_clear_answer(folder: Path, tmp_path: Path) -> None:
     case = load_case(folder)
@@ -229,26 +271,15 @@ def test_bad_input_gets_its_one_clear_answer(folder: Path, tmp_path: Path) -> No
     inputs = prepare(folder, case, work)
     env = dict(os.environ, COLUMNS="200", NO_COLOR="1", TMPDIR=str(private_tmp), PYTHONPATH=str(REPO))
     env.update({k: str(v) for k, v in (case.get("env") or {}).items()})
-    try:
-        result = subprocess.run(
-            [sys.executable, "-m", "quadpipe", *map(str, case["args"])],
-            cwd=work,
-            env=env,
-            input=case.get("stdin"),
-            capture_output=True,
-            text=True,
-            timeout=case.get("timeout_s", DEFAULT_TIMEOUT_S),
-        )
-    except subprocess.TimeoutExpired:
-        pytest.fail(f"hung: still running after {case.get('timeout_s', DEFAULT_TIMEOUT_S)} s")
-    stderr = result.stderr.replace(str(work), "{tmp}").replace(str(REPO), "{repo}")
+    result = run_quadpipe(case, work, env)
+    seen = shown(result, work)
     expected_path = folder / "expected.txt"
     if os.environ.get("QUADPIPE_BLESS"):
-        expected_path.write_text(stderr)
+        expected_path.write_text(seen)
     for leak in LEAKS:
         assert leak not in result.stderr + result.stdout, f"{leak!r} reached the user:\n{result.stderr}"
     assert result.returncode == case.get("exit", 1), result.stderr
-    assert stderr == expected_path.read_text()
+    assert seen == expected_path.read_text()
     left = {str(p.relative_to(work)) for p in work.rglob("*")} - inputs - set(case.get("creates") or [])
     assert not left, f"left behind in the working folder: {sorted(left)}"
     assert not list(private_tmp.iterdir()), f"left in TMPDIR: {sorted(p.name for p in private_tmp.iterdir())}"
