@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 from quadpipe.anatomy.roles import PARENT, ROLES, kind_of
 from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.limits import SWING_LIMIT_DEG, TWIST_LIMIT_DEG
 
 JOINTED_ROLES: tuple[str, ...] = tuple(role for role in ROLES if PARENT[role] is not None)
 """Every role but the pelvis (the free-floating root) has a joint to its parent."""
@@ -90,17 +91,26 @@ class JointLimits:
 def from_degrees(
     twist_min: float, twist_max: float, swing1: float, swing2: float, where: Location | None = None
 ) -> JointLimit:
-    """Build a `JointLimit` from the table's degrees, checking the values make sense."""
-    if twist_min > twist_max:
-        raise QuadpipeError.single(
-            "bad-limits", f"twist min {twist_min} is above twist max {twist_max}", where=where, hint="swap them"
-        )
+    """Build a `JointLimit` from the table's degrees, checking the values make sense.
+
+    Raises:
+        QuadpipeError: `out-of-range` for a limit that is not finite or beyond half a turn,
+            `bad-limits` for a twist min above its max or a negative swing.
+    """
+    for name, value in (("twist min", twist_min), ("twist max", twist_max)):
+        TWIST_LIMIT_DEG.check(value, name, where=where)
     if swing1 < 0 or swing2 < 0:
         raise QuadpipeError.single(
             "bad-limits",
             "swings are symmetric half-ranges and cannot be negative",
             where=where,
             hint="write e.g. 10 for -10..+10",
+        )
+    for name, value in (("swing1", swing1), ("swing2", swing2)):
+        SWING_LIMIT_DEG.check(value, name, where=where)
+    if twist_min > twist_max:
+        raise QuadpipeError.single(
+            "bad-limits", f"twist min {twist_min} is above twist max {twist_max}", where=where, hint="swap them"
         )
     return JointLimit(
         math.radians(twist_min), math.radians(twist_max), math.radians(swing1), math.radians(swing2), where

@@ -14,6 +14,7 @@ import numpy as np
 
 from quadpipe.anatomy.roles import CHILDREN, FRONT_CHAIN, HIND_CHAIN, LEAVES, LEGS, MAIN_CHILD, PARENT, ROLES, TOE_BONES
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
+from quadpipe.core.limits import SKELETON_COORDINATE_M
 
 MIN_BONE_LENGTH_M = 1e-5
 """Bones shorter than this (0.01 mm) are degenerate: an error."""
@@ -174,6 +175,31 @@ def assemble(raw: RawSkeleton, role_of: Mapping[str, str] | None = None) -> Skel
     skeleton = Skeleton(raw.name, raw.source, bones, warnings)
     _check_sides(raw, skeleton)
     return skeleton
+
+
+def check_coordinates(raw: RawSkeleton) -> RawSkeleton:
+    """`raw` when every joint's position, axis and end is finite and within
+    `SKELETON_COORDINATE_M` of the origin (in metres, once its units apply).
+
+    Raises:
+        QuadpipeError: `out-of-range` at the first joint with a point that is not.
+    """
+    scale = UNIT_TO_METRES[raw.units]
+    for joint in raw.joints:
+        for name, point in (("position", joint.position), ("axis", joint.axis), ("end", joint.end)):
+            if point is None:
+                continue
+            factor = 1.0 if name == "axis" else scale  # an axis is a direction, not a length
+            problems = [SKELETON_COORDINATE_M.problem(float(value) * factor) for value in point]
+            problem = next((p for p in problems if p is not None), None)
+            if problem is not None:
+                raise QuadpipeError.single(
+                    "out-of-range",
+                    f"joint {joint.name!r}, {name} {' '.join(f'{float(v):g}' for v in point)} {raw.units}: {problem}",
+                    where=raw.where(joint),
+                    hint=f"{SKELETON_COORDINATE_M.hint} (is the file's unit, {raw.units!r}, right?)",
+                )
+    return raw
 
 
 def check_structure(raw: RawSkeleton) -> dict[str, JointRecord]:

@@ -21,7 +21,8 @@ from quadpipe.anatomy.limits import JointLimit
 from quadpipe.anatomy.skeleton import Skeleton
 from quadpipe.core import configs
 from quadpipe.core.errors import Issue, QuadpipeError
-from quadpipe.core.yamlio import Name, load_yaml, validate_document
+from quadpipe.core.limits import BODY_MASS_KG, PELVIS_HEIGHT_CM
+from quadpipe.core.yamlio import Name, YamlDocument, load_yaml, validate_document
 
 REFERENCE_HP_M = 0.6556
 """The thesis's dog pelvis height, the reference size for defaults."""
@@ -42,8 +43,8 @@ class AnimalConfig(BaseModel):
     skeleton: str = Field(description="Skeleton file (.xml, .ma, .bvh), relative to this file.")
     limits: str = Field(description="Joint-limit table (.tsv, .csv), relative to this file.")
     roles: str | None = Field(None, description="Role map YAML for skeletons whose names are not roles.")
-    pelvis_height_cm: float = Field(gt=0, description="The thesis's HP: pelvis height in centimetres.")
-    mass_kg: float = Field(gt=0, description="Real adult body mass in kilograms; the model weighs this.")
+    pelvis_height_cm: float = Field(description="The thesis's HP: pelvis height in centimetres.")
+    mass_kg: float = Field(description="Real adult body mass in kilograms; the model weighs this.")
     description: str = Field("", description="One line for `quadpipe animals`.")
 
 
@@ -82,9 +83,14 @@ def load_animal(name_or_path: str | Path) -> Animal:
     path = configs.find_config("animals", name_or_path)
     doc = load_yaml(path)
     config = validate_document(AnimalConfig, doc)
-    folder = path.parent
-    skeleton = load_skeleton(folder / config.skeleton, folder / config.roles if config.roles else None)
-    limits = load_limits(folder / config.limits).resolve()
+    PELVIS_HEIGHT_CM.check(config.pelvis_height_cm, "pelvis_height_cm", where=doc.locate(("pelvis_height_cm",)))
+    BODY_MASS_KG.check(config.mass_kg, "mass_kg", where=doc.locate(("mass_kg",)))
+    skeleton_path, limits_path = (
+        _named_file(doc, key, what) for key, what in (("skeleton", "skeleton"), ("limits", "limits table"))
+    )
+    roles_path = _named_file(doc, "roles", "role map") if config.roles else None
+    skeleton = load_skeleton(skeleton_path, roles_path)
+    limits = load_limits(limits_path).resolve()
     hp = config.pelvis_height_cm / 100.0
     warnings = list(skeleton.warnings)
     if abs(skeleton.pelvis_height - hp) > HP_MISMATCH_WARNING * hp:
@@ -98,6 +104,24 @@ def load_animal(name_or_path: str | Path) -> Animal:
             )
         )
     return Animal(config.name, skeleton, limits, hp, config.mass_kg, str(path), tuple(warnings))
+
+
+def _named_file(doc: YamlDocument, key: str, what: str) -> Path:
+    """The file an animal config names under `key` (relative to the config), which must exist.
+
+    Raises:
+        QuadpipeError: `file-not-found` at the config's line that names it.
+    """
+    name = str(doc.data[key])
+    path = Path(doc.file).parent / name
+    if not path.is_file():
+        raise QuadpipeError.single(
+            "file-not-found",
+            f"{key}: {what} file {name!r} does not exist (looked for {str(path)!r})",
+            where=doc.locate((key,)),
+            hint="the path is relative to this animal config's folder",
+        )
+    return path
 
 
 def animal_from_files(
@@ -118,6 +142,8 @@ def animal_from_files(
     hp = skeleton.pelvis_height
     if mass_kg is None:
         mass_kg = REFERENCE_MASS_KG * (hp / REFERENCE_HP_M) ** 3
+    else:
+        BODY_MASS_KG.check(mass_kg, "mass_kg")
     return Animal(skeleton.name, skeleton, limits, hp, mass_kg, str(skeleton_path), skeleton.warnings)
 
 

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 from quadpipe.animals.sizing import FRAME_RATE
 
 if TYPE_CHECKING:
+    from quadpipe.core.errors import Location
     from quadpipe.sim.simulation import Result
 
 METRICS_SUFFIX = ".metrics.json"
@@ -32,9 +33,11 @@ def bake(
     parameters: Mapping[str, str] | None = None,
     fps: float = FRAME_RATE,
     on_frame: Callable[[float], None] | None = None,
+    places: Mapping[str, Location] | None = None,
 ) -> Result:
     """Simulate once (see `quadpipe.sim.simulation.simulate`), write the clip into every output,
-    then the metrics JSON.
+    then the metrics JSON. `places` says where each of `parameters` was written (a batch
+    plan's line), for messages.
 
     Raises:
         QuadpipeError: the inputs cannot be loaded, the simulation blew up, a file cannot be
@@ -45,7 +48,14 @@ def bake(
     from quadpipe.sim.simulation import simulate
 
     result = simulate(
-        animal, controller, seconds=seconds, scene=scene, parameters=dict(parameters or {}), on_frame=on_frame, fps=fps
+        animal,
+        controller,
+        seconds=seconds,
+        scene=scene,
+        parameters=dict(parameters or {}),
+        on_frame=on_frame,
+        fps=fps,
+        places=places,
     )
     for output in outputs:
         export_clip(result.clip, output)

@@ -19,7 +19,7 @@ from typing import Any
 
 from quadpipe.batch.bake import METRICS_SUFFIX, bake
 from quadpipe.batch.plan import BatchPlan, expand_names, label, looks_like_path
-from quadpipe.core.errors import QuadpipeError
+from quadpipe.core.errors import Location, QuadpipeError
 
 PROGRESS_STEP_S = 1.0
 """Simulated seconds between two progress reports of a running job."""
@@ -37,6 +37,7 @@ class Job:
         formats: bare suffixes (`glb`), one file each.
         folder: absolute path of the output folder.
         parameters: controller parameter values, as (name, value) pairs.
+        parameter_places: where each of them is written in the plan file, as (name, location) pairs.
     """
 
     animal: str
@@ -46,6 +47,7 @@ class Job:
     formats: tuple[str, ...]
     folder: str
     parameters: tuple[tuple[str, Any], ...] = ()
+    parameter_places: tuple[tuple[str, Location], ...] = ()
 
     @property
     def name(self) -> str:
@@ -104,10 +106,12 @@ def _job(plan: BatchPlan, folder: str, animal: str, controller: str, scene: str)
     """One job of the plan, its overrides applied in order."""
     seconds = plan.seconds
     parameters: dict[str, Any] = {}
-    for override in plan.overrides:
+    places: dict[str, Location] = {}
+    for index, override in enumerate(plan.overrides):
         if override.selects(label(animal), label(controller), label(scene)):
             seconds = override.seconds or seconds
             parameters |= override.parameters
+            places |= plan.parameter_places(index)
     return Job(
         animal=_absolute(animal),
         controller=_absolute(controller),
@@ -116,6 +120,7 @@ def _job(plan: BatchPlan, folder: str, animal: str, controller: str, scene: str)
         formats=tuple(plan.formats),
         folder=folder,
         parameters=tuple(parameters.items()),
+        parameter_places=tuple(places.items()),
     )
 
 
@@ -229,6 +234,7 @@ def _bake(job: Job, link: WorkerLink | None) -> dict:
             seconds=job.seconds,
             scene=job.scene,
             parameters=dict(job.parameters),
+            places=dict(job.parameter_places),
             outputs=[staging / output.name for output in job.outputs],
             metrics_path=staging / job.metrics_path.name,
             on_frame=_ProgressTicker(job.name, link) if link is not None else None,

@@ -12,10 +12,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, PrivateAttr
 
 from quadpipe.core import configs
-from quadpipe.core.errors import Issue, QuadpipeError, did_you_mean
+from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
+from quadpipe.core.limits import MAX_SIMULATED_SECONDS
 from quadpipe.core.yamlio import YamlDocument, load_yaml, validate_document
 
 ALL = "all"
@@ -107,6 +108,12 @@ class BatchPlan(BaseModel):
     formats: Formats = Field([DEFAULT_FORMAT], description="Formats to write, by suffix: glb, usdc, bvh, npz...")
     output: str = Field(DEFAULT_OUTPUT, min_length=1, description="Folder of the files (created if missing).")
     overrides: list[JobOverride] = Field([], description="Per-job settings, applied in order (later ones win).")
+    _places: list[dict[str, Location]] = PrivateAttr(default_factory=list)
+    """For each override, where each of its parameter values is written in the plan file."""
+
+    def parameter_places(self, index: int) -> dict[str, Location]:
+        """Where the parameter values of `overrides[index]` are written (empty: not from a file)."""
+        return self._places[index] if index < len(self._places) else {}
 
 
 def load_plan(path: str | Path) -> BatchPlan:
@@ -117,10 +124,28 @@ def load_plan(path: str | Path) -> BatchPlan:
             controller or scene of the plan, each at its file:line:col.
     """
     doc = load_yaml(path)
-    plan = validate_document(BatchPlan, doc)
+    plan = _validated(doc)
     issues = _selector_issues(plan, doc)
     if issues:
         raise QuadpipeError(issues)
+    plan._places = [
+        {name: doc.locate(("overrides", index, "parameters", name)) for name in override.parameters}
+        for index, override in enumerate(plan.overrides)
+    ]
+    return plan
+
+
+def _validated(doc: YamlDocument) -> BatchPlan:
+    """The plan of a document (a file, or the command line's options), its times within the run limit.
+
+    Raises:
+        QuadpipeError: schema errors, and a `seconds` over `MAX_SIMULATED_SECONDS`, at file:line:col.
+    """
+    plan = validate_document(BatchPlan, doc)
+    times: list[tuple[tuple[str | int, ...], float]] = [(("seconds",), plan.seconds)]
+    times += [(("overrides", i, "seconds"), o.seconds) for i, o in enumerate(plan.overrides) if o.seconds is not None]
+    for path, seconds in times:
+        MAX_SIMULATED_SECONDS.check(seconds, where=doc.locate(path))
     return plan
 
 
@@ -164,7 +189,8 @@ def plan_from(
     Raises:
         QuadpipeError: errors in the file (located), or in the options (`<command line>`).
     """
-    base = load_plan(path).model_dump(exclude_unset=True) if path is not None else {}
+    file_plan = load_plan(path) if path is not None else None
+    base = file_plan.model_dump(exclude_unset=True) if file_plan is not None else {}
     options = {
         "animals": _split(animals),
         "controllers": _split(controllers),
@@ -180,7 +206,10 @@ def plan_from(
             "a batch needs animals and controllers",
             hint="give a plan file, or --animal and --controller (e.g. quadpipe batch -a dog,horse -c spine_walk)",
         )
-    return validate_document(BatchPlan, YamlDocument(data=merged, file=COMMAND_LINE))
+    plan = _validated(YamlDocument(data=merged, file=COMMAND_LINE))
+    if file_plan is not None:  # overrides come only from the file: keep where they are written
+        plan._places = file_plan._places
+    return plan
 
 
 def _split(values: Sequence[str] | None) -> list[str] | None:

@@ -22,6 +22,7 @@ from quadpipe.batch.jobs import Job, JobResult, Outcome, WorkerLink, expand_jobs
 from quadpipe.batch.plan import BatchPlan
 from quadpipe.batch.report import BatchReport, ProgressDisplay
 from quadpipe.core.errors import QuadpipeError
+from quadpipe.core.limits import MAX_WORKERS
 
 POLL_S = 0.1
 """Wall-clock seconds between two looks at the running jobs and their progress reports."""
@@ -51,9 +52,11 @@ def run_batch(
         progress: show progress bars on stderr.
 
     Raises:
-        QuadpipeError: the output folder cannot be made, a format cannot be written, the
-            scheduler cannot be reached. A failing job does not raise: see the report.
+        QuadpipeError: more workers than `MAX_WORKERS`, the output folder cannot be made, a
+            format cannot be written, the scheduler cannot be reached. A failing job does not raise: see the report.
     """
+    if workers is not None:
+        MAX_WORKERS.check(workers)
     jobs = expand_jobs(plan)
     _prepare_folder(jobs)
     done = {job.name for job in jobs if not force and job.finished()}

@@ -26,21 +26,30 @@ LimitsOpt = Annotated[
     Path | None, typer.Option("--limits", help="Joint-limit table for a bare skeleton (default: the thesis's).")
 ]
 RolesOpt = Annotated[Path | None, typer.Option("--roles", help="Role map YAML for a skeleton's own bone names.")]
-MassOpt = Annotated[float | None, typer.Option("--mass", help="Body mass in kg for a bare skeleton.")]
+
+
+def _sane_mass(mass: float | None) -> float | None:
+    """`--mass`, refused when it is not a sane body mass (see `quadpipe.core.limits.BODY_MASS_KG`)."""
+    from quadpipe.core.limits import BODY_MASS_KG
+
+    return None if mass is None else BODY_MASS_KG.check(mass, "--mass")
+
+
+MassOpt = Annotated[
+    float | None, typer.Option("--mass", callback=_sane_mass, help="Body mass in kg for a bare skeleton.")
+]
 
 AnimalOpt = Annotated[str, typer.Option("--animal", "-a", help="Animal name or config file.")]
 ControllerOpt = Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")]
 SceneOpt = Annotated[str, typer.Option("--scene", help="Scene name or file: terrain, props, throws, goals.")]
-SecondsOpt = Annotated[float, typer.Option("--seconds", "-s", min=0.0, help="Simulated time.")]
+SecondsOpt = Annotated[float, typer.Option("--seconds", "-s", help="Simulated time.")]
 SetOpt = Annotated[
     list[str] | None, typer.Option("--set", help="Override a controller parameter: NAME=VALUE (repeatable).")
 ]
 MetricsOpt = Annotated[Path | None, typer.Option("--metrics", help="Metrics JSON (default: beside the first output).")]
 FpsOpt = Annotated[
     float,
-    typer.Option(
-        "--fps", min=1.0, help="Recorded frames per second; must divide the physics rate (120 for most animals)."
-    ),
+    typer.Option("--fps", help="Recorded frames per second; must divide the physics rate (120 for most animals)."),
 ]
 GaitReportOpt = Annotated[
     Path | None,

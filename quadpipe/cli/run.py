@@ -82,8 +82,10 @@ def _bake_and_report(
     """`simulate` and `bake`: check every output path first, bake, print the figures, then the gait files."""
     from quadpipe.batch.bake import METRICS_SUFFIX, bake
     from quadpipe.core.atomic import check_writable
+    from quadpipe.core.limits import check_run
     from quadpipe.exporters import check_output_path
 
+    check_run(seconds, fps, names=("--seconds", "--fps"))
     for output in outputs:
         check_output_path(output)
     for extra in (metrics, gait_report, diagram):
@@ -186,13 +188,14 @@ def preview(
     """
     from quadpipe.preview.window import check_display, open_window
 
-    check_display()
     model: Preview
-    if clip is not None:
+    if clip is not None:  # a bad clip is refused before anything looks for a display
         from quadpipe.preview import load_replay
 
         model, title = load_replay(clip), f"quadpipe preview: {clip}"
+        check_display()
     else:
+        check_display()
         from quadpipe.preview import LivePreview
 
         model = LivePreview(animal, controller, scene, parse_parameters(parameters))

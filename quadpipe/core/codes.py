@@ -49,6 +49,7 @@ GROUPS: tuple[CodeGroup, ...] = (
             "unknown-key": "a key that does not exist in that place",
             "missing-key": "a required key is missing",
             "invalid-value": "a value of the wrong shape (text instead of a list, ...)",
+            "out-of-range": "a number that is not finite or outside its sane range: a body mass or pelvis height, a joint limit, a skeleton coordinate, `--seconds`, a scene value (a negative size, a too steep ramp, a length beyond any scene) or a tunable (in the file or an override) outside its `min`/`max`",
             "unsupported-schema": "the `schema:` version is not one this quadpipe reads",
             "duplicate-name": "two items of one file have the same name (controller elements, parameters or tunables; scene animals and props)",
             "unknown-format": "a file suffix or `--format` that quadpipe cannot read or write",
@@ -84,6 +85,7 @@ GROUPS: tuple[CodeGroup, ...] = (
             "ma-mixed-units": "the Maya ASCII linear unit changes after lengths were set",
             "ma-bad-number": "a Maya ASCII value that is not a number",
             "ma-bad-value": "a Maya ASCII attribute with the wrong count or kind of values",
+            "ma-zero-scale": "a Maya ASCII node scaled by 0, which collapses the joints under it to a point",
             "ma-unknown-parent": "a Maya ASCII parent that is not a node created earlier",
             "ma-ambiguous-name": "a short Maya ASCII node name that several nodes share",
             "ma-unsupported-command": "a Maya ASCII command this reader does not follow (`parent` after creation)",
@@ -194,7 +196,6 @@ GROUPS: tuple[CodeGroup, ...] = (
         {
             "unknown-terrain-type": "a terrain `type` that does not exist",
             "not-constant": "a scene value that reads the simulation (`t`, a sensor, a body point)",
-            "out-of-range": "a value outside its bounds: a scene value (a negative size, a too steep ramp) or a tunable (in the file or an override) outside its `min`/`max`",
             "invalid-range": "a [lowest, highest] range given highest first",
             "reserved-name": "a prop named like a part of the scene itself",
             "unknown-animal-ref": "a throw or goal naming an animal that is not in the scene",

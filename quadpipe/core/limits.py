@@ -187,6 +187,76 @@ MAX_PARAMETERS = Limit(
 )
 """Parameters and tunables of one controller (after `extends`)."""
 
+# --------------------------------------------------------------------------- physical sanity
+
+
+@dataclass(frozen=True)
+class SaneRange:
+    """The sane values of a physical quantity: finite, from `low` to `high` (inclusive).
+
+    Numbers outside it are not physics quadpipe can simulate (a 1e308 kg dog, a NaN joint
+    limit, a hill a million pelvis heights high) even when the file's syntax is right.
+
+    Attributes:
+        what: the quantity, for messages ("a body mass").
+        low: the smallest sane value, in `unit`s.
+        high: the largest sane value, in `unit`s.
+        unit: the unit of `low`, `high` and the values checked ("kg").
+    """
+
+    what: str
+    low: float
+    high: float
+    unit: str
+
+    def problem(self, value: float) -> str | None:
+        """What is wrong with `value` (None: it is sane)."""
+        if not math.isfinite(value):
+            return f"{value} is not a finite number"
+        if not self.low <= value <= self.high:
+            return f"{value:g} {self.unit} is not a sane value for {self.what}"
+        return None
+
+    @property
+    def hint(self) -> str:
+        """The valid range, for a hint."""
+        return f"{self.what} must be a finite number from {self.low:g} to {self.high:g} {self.unit}"
+
+    def check(self, value: float, name: str, *, where: Location | None = None) -> float:
+        """`value` when it is sane; otherwise an `out-of-range` error about `name` (the key or option)."""
+        problem = self.problem(value)
+        if problem is not None:
+            raise QuadpipeError.single("out-of-range", f"{name}: {problem}", where=where, hint=self.hint)
+        return value
+
+
+BODY_MASS_KG = SaneRange("a body mass", 0.001, 20_000.0, "kg")
+"""An animal's (or a prop's) mass: from a gram (a shrew weighs 2 g) to 20 tonnes (an elephant
+weighs 6)."""
+
+PELVIS_HEIGHT_CM = SaneRange("a pelvis height (HP)", 0.1, 1_000.0, "cm")
+"""An animal config's `pelvis_height_cm`: from a millimetre to 10 metres."""
+
+TWIST_LIMIT_DEG = SaneRange("a twist limit", -180.0, 180.0, "deg")
+"""A joint's twist minimum or maximum in a limits table: at most half a turn either way."""
+
+SWING_LIMIT_DEG = SaneRange("a swing limit", 0.0, 180.0, "deg")
+"""A joint's swing half-range in a limits table: 0 (no such freedom) to half a turn."""
+
+SKELETON_COORDINATE_M = SaneRange("a skeleton coordinate", -1_000.0, 1_000.0, "m")
+"""A joint's position or end in a skeleton file, in metres once its units are applied: a
+kilometre from the origin is a unit mistake, not an animal."""
+
+FAR_AWAY_HP = 1000.0
+"""A body farther than this many pelvis heights from the origin has been flung away: a blow-up."""
+
+SCENE_EXTENT_HP = SaneRange("a scene length", -FAR_AWAY_HP, FAR_AWAY_HP, "HP")
+"""A scene's positions, sizes and heights, in pelvis heights of its first animal: a body
+farther than `FAR_AWAY_HP` from the origin counts as flung away (a blow-up)."""
+
+MAX_FPS = 10_000.0
+"""Recorded frames per second: no physics rate quadpipe uses is higher."""
+
 # --------------------------------------------------------------------------- scenes
 
 MAX_PROPS = Limit(
@@ -233,3 +303,45 @@ MAX_FRAMES = Limit(
     env="QUADPIPE_MAX_FRAMES",
 )
 """Frames of one clip (seconds x fps): the clip is held in memory, ~10 kB a frame per animal."""
+
+MAX_WORKERS = Limit(
+    "the number of worker processes",
+    256,
+    "workers",
+    "each worker holds a simulation in memory: one per CPU core is the default and usually fastest",
+    env="QUADPIPE_MAX_WORKERS",
+)
+"""`quadpipe batch --workers` on one machine."""
+
+
+def check_run(seconds: float, fps: float, *, names: tuple[str, str] = ("seconds", "fps")) -> int:
+    """The frames of a recording of `seconds` at `fps` (the start counts as frame 0), checked
+    against the run limits before anything is built.
+
+    Args:
+        seconds: simulated time, seconds.
+        fps: recorded frames per second.
+        names: how the messages name the two values (`--seconds`, `--fps` on the command line).
+
+    Raises:
+        QuadpipeError: `out-of-range` for a time that is negative or not finite, `bad-fps` for a
+            frame rate that is not a positive finite number up to `MAX_FPS`, `limit-exceeded`
+            over `MAX_SIMULATED_SECONDS` or `MAX_FRAMES`.
+    """
+    seconds_name, fps_name = names
+    if not (math.isfinite(seconds) and seconds >= 0):
+        raise QuadpipeError.single(
+            "out-of-range",
+            f"{seconds_name}: {seconds:g} is not a simulated time",
+            hint=f"give a number of seconds from 0 to {_amount(MAX_SIMULATED_SECONDS.value)}",
+        )
+    MAX_SIMULATED_SECONDS.check(seconds)
+    if not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
+        raise QuadpipeError.single(
+            "bad-fps",
+            f"{fps_name}: {fps:g} is not a frame rate",
+            hint=f"give a positive number of frames per second, at most {_amount(MAX_FPS)} (30 is the thesis's)",
+        )
+    frames = round(seconds * fps)
+    MAX_FRAMES.check(frames)
+    return frames

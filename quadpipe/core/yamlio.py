@@ -200,6 +200,8 @@ def _parse(text: str, file: str, loader_class: Any) -> YamlDocument:
     try:
         root = loader.get_single_node()
         doc = YamlDocument(data=None, file=file)
+        if root is None:  # empty, or only comments (a file cut short): errors point where it ends
+            doc.value_positions[()] = (max(1, len(text.splitlines())), 1)
         doc.data = {} if root is None else _construct(root, (), doc, loader)
         return doc
     finally:

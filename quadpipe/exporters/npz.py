@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,7 @@ import numpy as np
 from quadpipe.clip.model import AnimalTrack, Clip, PropTrack, Shape
 from quadpipe.core.atomic import write_bytes
 from quadpipe.core.errors import QuadpipeError
+from quadpipe.core.limits import MAX_FPS
 
 FORMAT_NAME = "quadpipe-clip"
 FORMAT_VERSION = 1
@@ -32,8 +34,24 @@ FORMAT_VERSION = 1
 ZIP_TIMESTAMP = (1980, 1, 1, 0, 0, 0)
 """Every archive member's date: the earliest a zip can hold, so output does not depend on when."""
 
-ANIMAL_ARRAYS = ("parents", "rest_start", "rest_end", "positions", "rotations", "foot_contacts")
-PROP_ARRAYS = ("positions", "rotations")
+ANIMAL_SHAPES: dict[str, tuple[str | int, ...]] = {
+    "parents": ("B",),
+    "rest_start": ("B", 3),
+    "rest_end": ("B", 3),
+    "positions": ("F", "B", 3),
+    "rotations": ("F", "B", 4),
+    "foot_contacts": ("F", 4),
+}
+"""Each animal array's shape: F frames, B bones (the animal's roles)."""
+
+PROP_SHAPES: dict[str, tuple[str | int, ...]] = {"positions": ("F", 3), "rotations": ("F", 4)}
+"""Each prop array's shape: F frames."""
+
+ANIMAL_ARRAYS = tuple(ANIMAL_SHAPES)
+PROP_ARRAYS = tuple(PROP_SHAPES)
+
+POSE_ARRAYS = ("rest_start", "rest_end", "positions", "rotations")
+"""The arrays that must be finite: quadpipe never writes a clip with a NaN or infinite pose."""
 
 
 def _shape_json(shape: Shape) -> dict[str, Any]:
@@ -106,17 +124,22 @@ def load_clip(path: str | Path) -> Clip:
 
     Raises:
         QuadpipeError: `file-not-found`, or `bad-clip-file` for anything that is not a quadpipe
-            clip archive of a version this quadpipe reads.
+            clip archive of a version this quadpipe reads, or not a sound one (a frame rate that
+            is not a positive number, no frames, arrays of mismatched shapes, non-finite poses).
     """
     path = Path(path)
     if not path.is_file():
         raise QuadpipeError.single("file-not-found", f"clip file {str(path)!r} does not exist", file=str(path))
+    if path.stat().st_size == 0:
+        raise QuadpipeError.single(
+            "bad-clip-file", f"{str(path)!r} is empty", file=str(path), hint="bake the clip again (an .npz output)"
+        )
     try:
         with np.load(path, allow_pickle=False) as archive:
             header = json.loads(str(archive["header"][()]))
             _check_header(path, header)
-            return _clip(header, archive)
-    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile) as exc:
+            return _checked(path, _clip(header, archive))
+    except (OSError, EOFError, ValueError, KeyError, TypeError, AttributeError, zipfile.BadZipFile) as exc:
         raise QuadpipeError.single(
             "bad-clip-file",
             f"{str(path)!r} is not a readable quadpipe clip: {exc}",
@@ -126,13 +149,56 @@ def load_clip(path: str | Path) -> Clip:
 
 
 def _check_header(path: Path, header: dict[str, Any]) -> None:
-    if header.get("format") != FORMAT_NAME or header.get("version") != FORMAT_VERSION:
+    if not isinstance(header, dict) or header.get("format") != FORMAT_NAME or header.get("version") != FORMAT_VERSION:
         raise QuadpipeError.single(
             "bad-clip-file",
             f"{str(path)!r} says format {header.get('format')!r} version {header.get('version')!r}",
             file=str(path),
             hint=f"this quadpipe reads {FORMAT_NAME} version {FORMAT_VERSION}",
         )
+
+
+def _checked(path: Path, clip: Clip) -> Clip:
+    """`clip` when it is sound; otherwise a `bad-clip-file` error saying what is wrong."""
+    problem = _clip_problem(clip)
+    if problem is not None:
+        raise QuadpipeError.single(
+            "bad-clip-file",
+            f"{str(path)!r} is a damaged clip: {problem}",
+            file=str(path),
+            hint="bake it again: quadpipe writes only whole clips with finite poses",
+        )
+    return clip
+
+
+def _clip_problem(clip: Clip) -> str | None:
+    """What makes a loaded clip unusable (None: nothing)."""
+    fps = float(clip.fps)
+    if not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
+        return f"its frame rate is {fps:g} frames per second"
+    frames = clip.frame_count
+    if frames == 0:
+        return "it holds no frames"
+    arrays = [
+        (f"animal{i}.{name}", getattr(track, name), shape, len(track.roles))
+        for i, track in enumerate(clip.animals)
+        for name, shape in ANIMAL_SHAPES.items()
+    ]
+    arrays += [
+        (f"prop{i}.{name}", getattr(track, name), shape, 0)
+        for i, track in enumerate(clip.props)
+        for name, shape in PROP_SHAPES.items()
+    ]
+    for name, array, shape, bones in arrays:
+        expected = tuple(frames if size == "F" else bones if size == "B" else size for size in shape)
+        if array.shape != expected:
+            return f"{name} has shape {array.shape}, where {expected} was expected ({frames} frames)"
+        if name.rpartition(".")[2] in POSE_ARRAYS and not np.isfinite(array).all():
+            return f"{name} holds NaN or infinite values"
+    for k, (name, values) in enumerate(clip.sensors.items()):
+        if values.ndim == 0 or values.shape[0] != frames:
+            return f"sensor{k} ({name!r}) has shape {values.shape}, not {frames} frames"
+    return None
 
 
 def _clip(header: dict[str, Any], archive: Any) -> Clip:

@@ -15,7 +15,7 @@ from pathlib import Path
 from quadpipe.anatomy.limits import JointLimits
 from quadpipe.anatomy.role_guess import RoleGuess, guess_roles
 from quadpipe.anatomy.rolemap import resolve_roles, write_role_map
-from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble
+from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble, check_coordinates
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.formats import FileFormat, FormatTable
 
@@ -60,9 +60,9 @@ def _reader_for(path: Path, formats: FormatTable, what: str) -> Callable:
 
 
 def read_raw_skeleton(path: str | Path) -> RawSkeleton:
-    """Read any supported skeleton file, without assigning roles."""
+    """Read any supported skeleton file, without assigning roles; its coordinates must be sane."""
     path = Path(path)
-    return _reader_for(path, SKELETON_FORMATS, "skeleton")(path)
+    return check_coordinates(_reader_for(path, SKELETON_FORMATS, "skeleton")(path))
 
 
 def load_skeleton(path: str | Path, role_map: str | Path | None = None) -> Skeleton:

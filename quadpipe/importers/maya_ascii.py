@@ -273,6 +273,13 @@ class _Reader(MelScript):
             )
         scale = self.radians_per_unit if key in ANGULAR_ATTRIBUTES else 1.0
         numbers = [self.number(v) * scale for v in values]
+        if key == "s" and 0.0 in numbers:
+            self.fail(
+                values[numbers.index(0.0)],
+                "ma-zero-scale",
+                f"{node.name!r} is scaled by 0, which collapses it and every joint under it to a point",
+                "give the node a non-zero scale (1 1 1) in Maya, or freeze its transformations, and export again",
+            )
         current = list(node.vector(key))
         if component is None:
             current = numbers

@@ -25,6 +25,20 @@ def mujoco_warnings() -> Iterator[list[str]]:
         mujoco.set_mju_user_warning(previous)
 
 
+def _ignore(message: str) -> None:
+    """A MuJoCo warning handler that drops the message (its count stays in `data.warning`)."""
+
+
+def keep_mujoco_quiet() -> None:
+    """Stop MuJoCo printing its warnings and appending them to `MUJOCO_LOG.TXT` in the working
+    folder: quadpipe reads them from `data.warning` (`warning_counts`) and reports them itself.
+
+    A handler already set (e.g. `mujoco_warnings` collecting them) is left in place.
+    """
+    if mujoco.get_mju_user_warning() is None:
+        mujoco.set_mju_user_warning(_ignore)
+
+
 def warning_counts(data: mujoco.MjData) -> dict[str, int]:
     """Non-zero entries of `data.warning`, by warning name (e.g. `mjWARN_BADQACC`)."""
     return {

@@ -21,7 +21,8 @@ import numpy as np
 
 from quadpipe.animals import sizing
 from quadpipe.clip.model import Clip
-from quadpipe.core.errors import QuadpipeError
+from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.limits import FAR_AWAY_HP, check_run
 from quadpipe.sim import health as physics
 from quadpipe.sim.metrics import clip_metrics
 from quadpipe.sim.recording import Recorder
@@ -37,9 +38,6 @@ FPS_TOLERANCE = 1e-9
 
 MIN_SUGGESTED_FPS = 10
 """Frame rates below this are not suggested when a frame rate is refused."""
-
-FAR_AWAY_HP = 1000.0
-"""A body farther than this many pelvis heights from the origin has been flung away: a blow-up."""
 
 
 class Controller(Protocol):
@@ -111,6 +109,7 @@ class Simulation:
     def __init__(
         self, setup: SceneSetup, extra_controllers: Sequence[Controller] = (), metadata: dict[str, str] | None = None
     ):
+        physics.keep_mujoco_quiet()
         self.setup = setup
         self.model = setup.spec.compile()
         self.data = mujoco.MjData(self.model)
@@ -130,6 +129,7 @@ class Simulation:
         scene: str | None = None,
         parameters: Mapping[str, str] | None = None,
         extra_controllers: Sequence[Controller] = (),
+        places: Mapping[str, Location] | None = None,
     ) -> Simulation:
         """An animal (and the scene's other animals) under a controller, in a scene, at t = 0.
 
@@ -139,6 +139,7 @@ class Simulation:
             scene: scene name or path (None: `flat`).
             parameters: controller parameter overrides (YAML values: "2 HP", "[1, 0, 0]").
             extra_controllers: more `Controller`s run after the main one.
+            places: where each of `parameters` was written (a batch plan's line), for messages.
 
         Raises:
             QuadpipeError: the animal, scene or controller cannot be loaded, or do not fit.
@@ -152,7 +153,7 @@ class Simulation:
         metadata = {"controller": controller or "none", "scene": scene_spec.name, "animal": built.animal.name}
         simulation = cls(build_scene(scene_spec, built), extra_controllers, metadata)
         if controller:
-            compiled, _ = simulation.compile_controller(controller, parameters)
+            compiled, _ = simulation.compile_controller(controller, parameters, places=places)
             simulation.use_controller(compiled)
         return simulation
 
@@ -169,12 +170,17 @@ class Simulation:
     # ------------------------------------------------------------------ the controller
 
     def compile_controller(
-        self, controller: str, parameters: Mapping[str, str] | None = None, goals: Mapping[str, str] | None = None
+        self,
+        controller: str,
+        parameters: Mapping[str, str] | None = None,
+        goals: Mapping[str, str] | None = None,
+        *,
+        places: Mapping[str, Location] | None = None,
     ) -> tuple[CompiledController, tuple[str, ...]]:
         """A controller compiled for this world's animals, and the files it was read from.
 
         The controller is offered the scene's goals, and `goals` over them (it takes those it
-        declares); `parameters` win over both.
+        declares); `parameters` win over both, and `places` says where they were written.
 
         Raises:
             QuadpipeError: the files do not validate, or a parameter does not fit them.
@@ -182,7 +188,7 @@ class Simulation:
         from quadpipe.controllers.runtime.runtime import compile_for
 
         offered = self.setup.goal_parameters | dict(goals or {})
-        return compile_for(controller, self.placements, parameters, scene_parameters=offered)
+        return compile_for(controller, self.placements, parameters, scene_parameters=offered, places=places)
 
     @overload
     def use_controller(self, compiled: CompiledController, *, carry_over: bool = False) -> ControllerRuntime: ...
@@ -253,11 +259,11 @@ class Simulation:
 
         Raises:
             SimulationBlowUp: on a NaN, a bad-acceleration warning or a body flung far away.
-            QuadpipeError: `fps` does not divide the physics rate.
+            QuadpipeError: `fps` does not divide the physics rate, or the run is over its limits.
         """
+        frames = check_run(seconds, fps)
         steps = frame_steps(self.model.opt.timestep, fps)
         recorder = Recorder(self.model, self.placements, fps)
-        frames = round(seconds * fps)
         mujoco.mj_forward(self.model, self.data)
         recorder.capture(self.data, self.frame_values())
         for frame in range(1, frames + 1):
@@ -326,6 +332,7 @@ def simulate(
     extra_controllers: Sequence[Controller] = (),
     on_frame: Callable[[float], None] | None = None,
     fps: float = sizing.FRAME_RATE,
+    places: Mapping[str, Location] | None = None,
 ) -> Result:
     """Build an animal (and scene), run a controller on it, and return the clip and its metrics.
 
@@ -339,9 +346,15 @@ def simulate(
         on_frame: called with the simulated time after every frame (progress, interruption).
         fps: recorded frames per second (30, the thesis's; a rat's walk needs more to be
             analysed: its stride lasts 0.17 s).
+        places: where each of `parameters` was written (a batch plan's line), for messages.
+
+    Raises:
+        QuadpipeError: a time or frame rate out of the run limits (before anything is built),
+            inputs that cannot be loaded, a simulation that blew up.
     """
+    check_run(seconds, fps)
     simulation = Simulation.build(
-        animal, controller, scene=scene, parameters=parameters, extra_controllers=extra_controllers
+        animal, controller, scene=scene, parameters=parameters, extra_controllers=extra_controllers, places=places
     )
     clip = simulation.record(seconds, on_frame=on_frame, fps=fps)
     return Result(clip, clip_metrics(clip), simulation.runtime)

@@ -19,6 +19,7 @@ from pydantic import BaseModel
 
 from quadpipe.core import configs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
+from quadpipe.core.limits import MAX_ANIMALS, MAX_PROPS, MAX_THROWS, Limit
 from quadpipe.core.yamlio import YamlDocument, dotted, load_yaml, located_issues
 from quadpipe.quantities.expressions import ExprError, Namespace, check_expected, resolve_point_name
 from quadpipe.world.format import (
@@ -28,6 +29,7 @@ from quadpipe.world.format import (
     AnimalEntry,
     AnimalGrid,
     SceneFile,
+    ThrowSeries,
     is_zero,
     iter_quantities,
 )
@@ -93,7 +95,7 @@ def parse_scene(doc: YamlDocument) -> SceneFile:
     issues = _structure_issues(doc)
     if not issues:
         scene = SceneFile.model_validate(doc.data)
-        issues = _quantity_issues(scene, doc) + _reference_issues(scene, doc)
+        issues = _count_issues(scene, doc) or _quantity_issues(scene, doc) + _reference_issues(scene, doc)
     if issues:
         raise QuadpipeError(sorted(issues, key=file_order))
     return scene
@@ -165,6 +167,30 @@ def shown(path: tuple[Any, ...], doc: YamlDocument) -> str:
     while path and path not in doc.value_positions:
         path = path[:-1]
     return dotted(path)
+
+
+def _count_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
+    """Props, throws and animals over their limits (grids and random series counted as what they
+    expand to), each at the item that goes over, checked before anything is expanded or built."""
+    counts = {
+        (MAX_PROPS, "props"): [1 for _ in scene.props],
+        (MAX_THROWS, "throws"): [throw.random.count if isinstance(throw, ThrowSeries) else 1 for throw in scene.throws],
+        (MAX_ANIMALS, "animals"): [
+            entry.grid.rows * entry.grid.columns if isinstance(entry, AnimalGrid) else 1
+            for entry in scene.animals or []
+        ],
+    }
+    return [issue for (limit, key), sizes in counts.items() for issue in _over(limit, key, sizes, doc)]
+
+
+def _over(limit: Limit, key: str, sizes: list[int], doc: YamlDocument) -> list[Issue]:
+    """The issue of the first item of list `key` whose running total of `sizes` is over `limit`."""
+    total = 0
+    for index, size in enumerate(sizes):
+        total += size
+        if total > limit.value:
+            return limit.exceeded(sum(sizes), where=doc.locate((key, index))).issues
+    return []
 
 
 def _quantity_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:

@@ -33,7 +33,7 @@ THROW_RANGE_FRACTION = 0.5
 
 PARK_DEPTH_HP = 50.0
 """Thrown objects wait this many pelvis heights under the floor, without collisions and held
-against gravity, until their throw (well inside `quadpipe.sim.simulation.FAR_AWAY_HP`)."""
+against gravity, until their throw (well inside `quadpipe.core.limits.FAR_AWAY_HP`)."""
 
 THROWN_RGBA = (0.90, 0.65, 0.15, 1.0)
 """Display colour of thrown objects."""

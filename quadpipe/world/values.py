@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from quadpipe.core.errors import Issue, QuadpipeError
+from quadpipe.core.limits import SCENE_EXTENT_HP
 from quadpipe.quantities import units
 from quadpipe.quantities.expressions import VECTOR, Expect, compile_quantity
 from quadpipe.quantities.fields import Bounds
@@ -24,7 +25,8 @@ class Values:
         hp: the first animal's pelvis height, metres.
 
     Raises (on creation):
-        QuadpipeError: a value out of its bounds (a negative size, a 70 degree ramp).
+        QuadpipeError: a value out of its bounds (a negative size, a 70 degree ramp), not
+            finite, or a length beyond the sane extent of a scene (`SCENE_EXTENT_HP`).
     """
 
     def __init__(self, scene: SceneSpec, scale: units.Scale):
@@ -35,10 +37,15 @@ class Values:
         for path, value, expect, bounds in iter_quantities(scene.file):
             resolved = _evaluate(value, expect, scale)
             self._values[path] = resolved
-            problem = _out_of_bounds(resolved, bounds)
+            problem = _not_sane(resolved, expect, self.hp) or _out_of_bounds(resolved, bounds)
             if problem:
                 issues.append(
-                    Issue("out-of-range", f"{shown(path, scene.doc)}: {value!r} {problem}", scene.locate(path))
+                    Issue(
+                        "out-of-range",
+                        f"{shown(path, scene.doc)}: {value!r} {problem}",
+                        scene.locate(path),
+                        SCENE_EXTENT_HP.hint if problem == _FAR else None,
+                    )
                 )
         if issues:
             raise QuadpipeError(sorted(issues, key=file_order))
@@ -62,6 +69,20 @@ def _evaluate(value: Any, expect: Expect, scale: units.Scale) -> Any:
     assert constant is not None, "loading refuses scene values that read the simulation (`not-constant`)"
     result = constant[0]
     return np.array(result, dtype=float) if expect.kind == VECTOR else float(result)
+
+
+_FAR = f"is over {SCENE_EXTENT_HP.high:g} HP: no scene reaches that far"
+"""The problem of a length too large for any scene."""
+
+
+def _not_sane(value: Any, expect: Expect, hp: float) -> str | None:
+    """What makes a value no physics at all: not finite, or a length beyond `SCENE_EXTENT_HP`."""
+    values = np.atleast_1d(np.asarray(value, dtype=float))
+    if not np.isfinite(values).all():
+        return "is not a finite number"
+    if expect.dims == (units.LENGTH,) and SCENE_EXTENT_HP.problem(float(np.abs(values).max()) / hp) is not None:
+        return _FAR
+    return None
 
 
 def _out_of_bounds(value: Any, bounds: Bounds | None) -> str | None:

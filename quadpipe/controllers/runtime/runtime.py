@@ -34,6 +34,7 @@ from quadpipe.controllers.language.compiler import CompiledController, compile_c
 from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.runtime.kernel import HEADING_MIN_NORM, INTEGER_ARRAYS, NO_FAULT, REAL_ARRAYS, pack, run
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
+from quadpipe.core.errors import Location
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.world.placement import Placement
 
@@ -410,6 +411,7 @@ def compile_for(
     parameters: Mapping[str, Any] | None = None,
     *,
     scene_parameters: Mapping[str, Any] | None = None,
+    places: Mapping[str, Location] | None = None,
 ) -> tuple[CompiledController, tuple[str, ...]]:
     """Load a controller by name or path and compile it for the placed animals.
 
@@ -420,6 +422,7 @@ def compile_for(
             does not declare is an error.
         scene_parameters: values a scene offers (its goals); only those the controller
             declares are used, and `parameters` win over them.
+        places: where each of `parameters` was written (a batch plan's line), for messages.
 
     Returns:
         the compiled controller (bind it with `ControllerRuntime`), and the files it was read
@@ -432,6 +435,6 @@ def compile_for(
     offered = {name: value for name, value in (scene_parameters or {}).items() if name in spec.parameters}
     overrides = offered | dict(parameters or {})
     if overrides:
-        spec = load_controller(controller, parameters=overrides)
+        spec = load_controller(controller, parameters=overrides, places=places)
     scale = scale_for_animals([p.built.animal for p in placements])
     return compile_controller(spec, scale), spec.sources
