@@ -29,6 +29,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -263,11 +264,14 @@ def run_quadpipe(case: dict[str, Any], work: Path, env: dict[str, str]) -> subpr
 
 
 @pytest.mark.parametrize("folder", case_folders(), ids=case_id)
-def test_bad_input_gets_its_one_clear_answer(folder: Path, tmp_path: Path) -> None:
+def test_bad_input_gets_its_one_clear_answer(folder: Path, tmp_path: Path, request: pytest.FixtureRequest) -> None:
     case = load_case(folder)
-    work, private_tmp = tmp_path / "work", tmp_path / "tmp"
+    work = tmp_path / "work"
     work.mkdir()
-    private_tmp.mkdir()
+    # A short private TMPDIR: multiprocessing puts its sockets there, and a Unix socket's path
+    # must stay under ~100 characters (pytest's tmp_path is too deep for that).
+    private_tmp = Path(tempfile.mkdtemp(prefix="qp-"))
+    request.addfinalizer(lambda: shutil.rmtree(private_tmp, ignore_errors=True))
     inputs = prepare(folder, case, work)
     env = dict(os.environ, COLUMNS="200", NO_COLOR="1", TMPDIR=str(private_tmp), PYTHONPATH=str(REPO))
     env.update({k: str(v) for k, v in (case.get("env") or {}).items()})
