@@ -268,6 +268,9 @@ class _ThrowBase(_Model):
 
 
 def _nonzero(vector: Any) -> Any:
+    """A `from:` vector: finite, and not [0, 0, 0]."""
+    if isinstance(vector, list) and not all(math.isfinite(v) for v in vector):
+        raise ValueError("a direction vector must hold finite numbers")
     if isinstance(vector, list) and not any(vector):
         raise ValueError("a direction vector cannot be [0, 0, 0]")
     return vector
