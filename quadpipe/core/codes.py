@@ -141,7 +141,7 @@ GROUPS: tuple[CodeGroup, ...] = (
         {
             "expression-syntax": "an expression that cannot be parsed",
             "forbidden-syntax": "an expression using syntax that is not allowed",
-            "non-finite-number": "a number that is not finite (nan, inf, 1e309), or a constant part of an expression that overflows (10^10^10)",
+            "non-finite-number": "a number that is not finite (nan, inf, 1e309), or a constant part of an expression that overflows (10^10^10) or has no value (sqrt(-1), acos(2))",
             "division-by-zero": "an expression dividing by a constant zero (`0.5 bw / 0`)",
             "unknown-name": "an expression using a name that does not exist",
             "unknown-function": "an expression calling a function that does not exist",
