@@ -20,7 +20,7 @@ from pydantic import BaseModel
 from quadpipe.core import configs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.limits import MAX_ANIMALS, MAX_PROPS, MAX_THROWS, Limit
-from quadpipe.core.yamlio import YamlDocument, dotted, load_yaml, located_issues
+from quadpipe.core.yamlio import YamlDocument, dotted, kind_of_value, load_yaml, located_issues
 from quadpipe.quantities.expressions import ExprError, Namespace, check_expected, resolve_point_name
 from quadpipe.world.format import (
     RESERVED_PROP_NAMES,
@@ -127,6 +127,15 @@ def _structure_issues(doc: YamlDocument) -> list[Issue]:
                         "missing-key",
                         f"{what} item {index + 1} has no `type`",
                         doc.locate(path),
+                        f"valid: {', '.join(models)}",
+                    )
+                )
+            elif not isinstance(tag, str):
+                issues.append(
+                    Issue(
+                        "invalid-value",
+                        f"{what} item {index + 1}'s `type` must be a name, not {kind_of_value(tag)}",
+                        doc.locate(path + ("type",)),
                         f"valid: {', '.join(models)}",
                     )
                 )
