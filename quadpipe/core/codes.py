@@ -52,6 +52,7 @@ GROUPS: tuple[CodeGroup, ...] = (
             "out-of-range": "a number that is not finite or outside its sane range: a body mass or pelvis height, a joint limit, a skeleton coordinate, `--seconds`, a scene value (a negative size, a too steep ramp, a length beyond any scene) or a tunable (in the file or an override) outside its `min`/`max`",
             "unsupported-schema": "the `schema:` version is not one this quadpipe reads",
             "duplicate-name": "two items of one file have the same name (controller elements, parameters or tunables; scene animals and props)",
+            "unused-option": "an option for a bare skeleton file (`--mass`, `--limits`, `--roles`) given with an animal name or config",
             "unknown-format": "a file suffix or `--format` that quadpipe cannot read or write",
             "unwritable-output": "an output path that cannot be written (a folder, no permission, a missing drive)",
             "unknown-animal": "an animal name that is not built in (or, for `analyze`, not in the clip)",
