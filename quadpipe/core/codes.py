@@ -125,6 +125,7 @@ GROUPS: tuple[CodeGroup, ...] = (
             "empty-table": "a limits table with no rows",
             "bad-header": "a limits table header missing columns",
             "duplicate-row": "two rows for one bone",
+            "unknown-bone": "a limits table row keyed by a name that is no role, bone or group, so it applies to no joint",
             "bad-number": "a limit that is not a number of degrees",
             "missing-limits": "a kind of joint the table has no row for",
             "bad-limits": "limits that contradict themselves (min above max, a negative swing)",
