@@ -108,7 +108,7 @@ GROUPS: tuple[CodeGroup, ...] = (
             "missing-end": "a leaf bone whose end the file does not give",
             "zero-length-bone": "a bone whose end lies on its joint",
             "bad-up-axis": "an up axis other than y or z",
-            "zero-axis": "a joint axis of length zero (`axis=\"0 0 0\"`): it gives no direction",
+            "zero-axis": 'a joint axis of length zero (`axis="0 0 0"`): it gives no direction',
             "no-forward": "the thorax straight above the pelvis, so the body has no forward direction",
             "mirrored-legs": "a left leg on the animal's right side, or the reverse",
             "unplaced-joints": "(warning) joints with no role, left out of the model",
