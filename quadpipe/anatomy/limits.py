@@ -22,11 +22,38 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from quadpipe.anatomy.roles import PARENT, ROLES, kind_of
-from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.errors import Location, QuadpipeError, did_you_mean
 from quadpipe.core.limits import SWING_LIMIT_DEG, TWIST_LIMIT_DEG
 
 JOINTED_ROLES: tuple[str, ...] = tuple(role for role in ROLES if PARENT[role] is not None)
 """Every role but the pelvis (the free-floating root) has a joint to its parent."""
+
+
+def _row_keys_of(role: str) -> tuple[str, ...]:
+    """The row keys that apply to `role`, most precise first (see module docstring)."""
+    kind = kind_of(role)
+    base = re.sub(r"\d+$", "", kind)
+    return (role, kind, base, base + "s")
+
+
+ROW_KEYS: frozenset[str] = frozenset(key for role in JOINTED_ROLES for key in _row_keys_of(role))
+"""Every row key that applies to some role: a row keyed otherwise is never used."""
+
+
+def check_row_key(key: str, where: Location) -> None:
+    """Refuse a row key that applies to no role (a misspelt bone: `kneee`).
+
+    Raises:
+        QuadpipeError: `unknown-bone` at the row.
+    """
+    if key not in ROW_KEYS:
+        raise QuadpipeError.single(
+            "unknown-bone",
+            f"no bone is called {key!r}: this row would apply to none",
+            where=where,
+            hint=did_you_mean(key, sorted(ROW_KEYS), listing=False)
+            or "key a row by a role (lf_elbow), a bone on every leg (elbow) or a group (spines)",
+        )
 
 
 @dataclass(frozen=True)
@@ -54,9 +81,7 @@ class JointLimits:
 
     def row_for(self, role: str) -> str | None:
         """The key of the row that applies to `role` (see module docstring), or None."""
-        kind = kind_of(role)
-        base = re.sub(r"\d+$", "", kind)
-        for key in (role, kind, base, base + "s"):
+        for key in _row_keys_of(role):
             if key in self.rows:
                 return key
         return None

@@ -19,6 +19,9 @@ from quadpipe.core.limits import SKELETON_COORDINATE_M
 MIN_BONE_LENGTH_M = 1e-5
 """Bones shorter than this (0.01 mm) are degenerate: an error."""
 
+MIN_AXIS_LENGTH = 1e-9
+"""Joint axes shorter than this (a direction, no unit) give no direction: an error."""
+
 UP_AXES = {"y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
 """Up axes a file may declare."""
 
@@ -199,7 +202,24 @@ def check_coordinates(raw: RawSkeleton) -> RawSkeleton:
                     where=raw.where(joint),
                     hint=f"{SKELETON_COORDINATE_M.hint} (is the file's unit, {raw.units!r}, right?)",
                 )
+        _check_axis_length(raw, joint)
     return raw
+
+
+def _check_axis_length(raw: RawSkeleton, joint: JointRecord) -> None:
+    """Refuse a joint axis too short to give a direction (`0 0 0`).
+
+    Raises:
+        QuadpipeError: `zero-axis` at the joint.
+    """
+    if joint.axis is not None and np.linalg.norm(np.asarray(joint.axis, dtype=float)) < MIN_AXIS_LENGTH:
+        raise QuadpipeError.single(
+            "zero-axis",
+            f"joint {joint.name!r}, axis {' '.join(f'{float(v):g}' for v in joint.axis)}: "
+            "an axis of length zero has no direction",
+            where=raw.where(joint),
+            hint="write the joint's main rotation axis, e.g. 1 0 0, or leave `axis` out to use the lateral axis",
+        )
 
 
 def check_structure(raw: RawSkeleton) -> dict[str, JointRecord]:
@@ -380,7 +400,7 @@ def _main_axis(joint: JointRecord, rotation: np.ndarray) -> np.ndarray:
         return np.array([0.0, 1.0, 0.0])
     axis = rotation @ np.asarray(joint.axis, dtype=float)
     norm = np.linalg.norm(axis)
-    if norm < 1e-9:
+    if norm < MIN_AXIS_LENGTH:
         return np.array([0.0, 1.0, 0.0])
     axis /= norm
     return -axis if axis[1] < 0 else axis

@@ -180,4 +180,27 @@ def resolve_animal(
             file=str(source),
             hint=f"skeleton formats: {', '.join(sorted(readers))}; animal configs: .yaml; or an animal name",
         )
+    _refuse_skeleton_options(source, {"--limits": limits, "--roles": role_map, "--mass": mass_kg})
     return load_animal(source)
+
+
+_CONFIG_KEY_OF_OPTION = {"--limits": "limits", "--roles": "roles", "--mass": "mass_kg"}
+"""The animal config key that sets what each option for a bare skeleton sets."""
+
+
+def _refuse_skeleton_options(source: str | Path, options: dict[str, object]) -> None:
+    """Refuse the options for a bare skeleton (named as the command line names them) given with
+    an animal name or config, which would otherwise be ignored.
+
+    Raises:
+        QuadpipeError: `unknown-animal` (no such animal), or `unused-option` naming the first
+            option given.
+    """
+    given = [name for name, value in options.items() if value is not None]
+    if given:
+        path = configs.find_config("animals", source)
+        raise QuadpipeError.single(
+            "unused-option",
+            f"{given[0]} applies to a skeleton file, not to the animal {str(source)!r}",
+            hint=f"set `{_CONFIG_KEY_OF_OPTION[given[0]]}:` in a copy of {path} and give that file",
+        )

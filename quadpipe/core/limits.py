@@ -267,6 +267,15 @@ MAX_PROPS = Limit(
 )
 """Props of one scene (after grids are expanded)."""
 
+MAX_TERRAIN_PIECES = Limit(
+    "the number of terrain pieces in the scene",
+    10_000,
+    "pieces",
+    "every piece (a stairs step, a ramp, a block) is a box MuJoCo collides with: use fewer, deeper steps",
+    env="QUADPIPE_MAX_TERRAIN_PIECES",
+)
+"""Boxes the terrain of one scene is built from (stairs: one a step and the landing)."""
+
 MAX_THROWS = Limit(
     "the number of throws in the scene",
     1_000,

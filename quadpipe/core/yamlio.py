@@ -321,3 +321,12 @@ def field_names_at(model: type[pydantic.BaseModel], loc: tuple[Any, ...]) -> lis
         if isinstance(candidate, type) and issubclass(candidate, pydantic.BaseModel):
             return [info.alias or name for name, info in candidate.model_fields.items()]
     return []
+
+
+def kind_of_value(value: Any) -> str:
+    """What a YAML value is, for a message: `a mapping`, `a list`, `a number`."""
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, list):
+        return "a list"
+    return "a yes/no value" if isinstance(value, bool) else "a number"

@@ -14,7 +14,7 @@ import csv
 import io
 from pathlib import Path
 
-from quadpipe.anatomy.limits import JointLimit, JointLimits, from_degrees
+from quadpipe.anatomy.limits import JointLimit, JointLimits, check_row_key, from_degrees
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.core.limits import MAX_TABLE_FILE_BYTES
 from quadpipe.core.textfiles import read_text
@@ -68,6 +68,7 @@ def read_limits(path: str | Path) -> JointLimits:
             raise QuadpipeError.single(
                 "duplicate-row", f"bone {bone!r} has two rows (first at line {first_lines[bone]})", where=where
             )
+        check_row_key(bone, where)
         twist_min, twist_max, swing1, swing2 = (_number(cells, index[c], c, source, line, bone) for c in COLUMNS[1:])
         limits[bone] = from_degrees(twist_min, twist_max, swing1, swing2, where=where)
         first_lines[bone] = line

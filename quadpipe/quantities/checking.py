@@ -33,6 +33,7 @@ from quadpipe.quantities.nodes import (
     NUMBER,
     POINT_ANCHORS,
     POINT_TYPE,
+    REST_PREFIX,
     SCALAR,
     TIME_VARIABLE,
     VECTOR,
@@ -464,6 +465,8 @@ def refuse_bad_constants(expr: Expr, text: str) -> None:
                 )
             if node.op not in ("num", "unit") and _is_fixed(node) and node.type.kind != BOOL:
                 _need_finite(evaluate_constant(node), text)
+            if node.op == "call" and FUNCTIONS[node.value].domain is not None:
+                _need_in_domain(node, text)
 
 
 def _need_finite(value: np.ndarray, text: str) -> None:
@@ -474,6 +477,36 @@ def _need_finite(value: np.ndarray, text: str) -> None:
             f"in {text!r}: a constant part overflows: its value is not a finite number",
             f"keep every value between -{sys.float_info.max:.3g} and {sys.float_info.max:.3g}",
         )
+
+
+_SAMPLE_SCALE = units.Scale.of([0.01, 1.0, 100.0], [0.001, 1.0, 1000.0])
+"""Animals from a mouse's size to beyond an elephant's: a part that depends on the animal is
+refused only when it is wrong for every one of them."""
+
+
+def _need_in_domain(call: Expr, text: str) -> None:
+    """Refuse a constant argument outside its function's domain (`sqrt(-HP / g)`, `acos(2)`).
+
+    An argument that depends on the animal is refused when it is outside for every animal of
+    `_SAMPLE_SCALE`; one that reads rest lengths or the simulation is left to the runtime.
+    """
+    function = FUNCTIONS[call.value]
+    argument = call.args[0]
+    if function.domain is None or not argument.is_constant or _reads_rest(argument):
+        return
+    inside, words = function.domain
+    value = evaluate_constant(argument) if _is_fixed(argument) else compile_expr(argument, _SAMPLE_SCALE)({})
+    if not np.any(inside(value)):
+        raise ExprError(
+            "non-finite-number",
+            f"in {text!r}: {function.name}() is given a constant that is not {words}: its value is not a number",
+            "check the sign and the units of what it is given",
+        )
+
+
+def _reads_rest(expr: Expr) -> bool:
+    """Whether an expression reads a rest length (known only with the animal's skeleton)."""
+    return (expr.op == "var" and str(expr.value).startswith(REST_PREFIX)) or any(_reads_rest(a) for a in expr.args)
 
 
 def _is_fixed(expr: Expr) -> bool:

@@ -28,6 +28,9 @@ class Function:
         result: (argument types, expression text) -> result type; raises `ExprError`.
         impl: numpy implementation over arrays of all animals; None for the functions that
             read the env or the scale and are compiled specially (see `_build_call`).
+        domain: for functions defined on part of the numbers only: (argument values -> whether
+            each is inside, what the inside is in words). `impl` clamps a changing argument into
+            it; a constant argument outside it is refused when the controller is checked.
     """
 
     name: str
@@ -35,6 +38,7 @@ class Function:
     description: str
     result: Callable[[list[Type], str], Type]
     impl: Callable[..., np.ndarray] | None
+    domain: tuple[Callable[[np.ndarray], np.ndarray], str] | None = None
 
 
 def _arity(types: list[Type], name: str, count: int, text: str) -> None:
@@ -211,6 +215,9 @@ def _mix_impl(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
     return a + (b - a) * w
 
 
+_UNIT_INTERVAL = (lambda x: np.abs(x) <= 1, "between -1 and 1")
+"""Domain of asin and acos."""
+
 FUNCTIONS: dict[str, Function] = {
     f.name: f
     for f in (
@@ -225,6 +232,7 @@ FUNCTIONS: dict[str, Function] = {
             "inverse sine, an angle",
             _unary_number("asin", Type(SCALAR, units.ANGLE)),
             lambda x: np.arcsin(np.clip(x, -1, 1)),
+            _UNIT_INTERVAL,
         ),
         Function(
             "acos",
@@ -232,6 +240,7 @@ FUNCTIONS: dict[str, Function] = {
             "inverse cosine, an angle",
             _unary_number("acos", Type(SCALAR, units.ANGLE)),
             lambda x: np.arccos(np.clip(x, -1, 1)),
+            _UNIT_INTERVAL,
         ),
         Function(
             "atan",
@@ -249,6 +258,7 @@ FUNCTIONS: dict[str, Function] = {
             "square root; halves the unit's powers (`sqrt(g * HP)` is a velocity)",
             _sqrt,
             lambda x: np.sqrt(np.maximum(x, 0.0)),
+            (lambda x: x >= 0, "at least 0"),
         ),
         Function("exp", "exp(number)", "exponential of a plain number", _unary_number("exp", NUMBER), np.exp),
         Function(
@@ -257,6 +267,7 @@ FUNCTIONS: dict[str, Function] = {
             "natural logarithm of a plain number",
             _unary_number("log", NUMBER),
             lambda x: np.log(np.maximum(x, ZERO_NORM)),
+            (lambda x: x > 0, "above 0"),
         ),
         Function("abs", "abs(x)", "absolute value, same unit", _same_scalar("abs", 1), np.abs),
         Function("sign", "sign(x) -> number", "-1, 0 or 1", _sign, np.sign),

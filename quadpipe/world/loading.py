@@ -19,8 +19,8 @@ from pydantic import BaseModel
 
 from quadpipe.core import configs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
-from quadpipe.core.limits import MAX_ANIMALS, MAX_PROPS, MAX_THROWS, Limit
-from quadpipe.core.yamlio import YamlDocument, dotted, load_yaml, located_issues
+from quadpipe.core.limits import MAX_ANIMALS, MAX_PROPS, MAX_TERRAIN_PIECES, MAX_THROWS, Limit
+from quadpipe.core.yamlio import YamlDocument, dotted, kind_of_value, load_yaml, located_issues
 from quadpipe.quantities.expressions import ExprError, Namespace, check_expected, resolve_point_name
 from quadpipe.world.format import (
     RESERVED_PROP_NAMES,
@@ -29,6 +29,7 @@ from quadpipe.world.format import (
     AnimalEntry,
     AnimalGrid,
     SceneFile,
+    Stairs,
     ThrowSeries,
     is_zero,
     iter_quantities,
@@ -130,6 +131,15 @@ def _structure_issues(doc: YamlDocument) -> list[Issue]:
                         f"valid: {', '.join(models)}",
                     )
                 )
+            elif not isinstance(tag, str):
+                issues.append(
+                    Issue(
+                        "invalid-value",
+                        f"{what} item {index + 1}'s `type` must be a name, not {kind_of_value(tag)}",
+                        doc.locate(path + ("type",)),
+                        f"valid: {', '.join(models)}",
+                    )
+                )
             elif tag not in models:
                 issues.append(
                     Issue(
@@ -169,10 +179,18 @@ def shown(path: tuple[Any, ...], doc: YamlDocument) -> str:
     return dotted(path)
 
 
+_MOST_PIECES_PER_ITEM = 3
+"""Boxes a terrain item other than stairs is built from, at most (a hill: up, top, down)."""
+
+
 def _count_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
-    """Props, throws and animals over their limits (grids and random series counted as what they
-    expand to), each at the item that goes over, checked before anything is expanded or built."""
+    """Terrain pieces, props, throws and animals over their limits (stairs, grids and random
+    series counted as what they expand to), each at the item that goes over, checked before
+    anything is expanded or built."""
     counts = {
+        (MAX_TERRAIN_PIECES, "terrain"): [
+            item.steps + 1 if isinstance(item, Stairs) else _MOST_PIECES_PER_ITEM for item in scene.terrain
+        ],
         (MAX_PROPS, "props"): [1 for _ in scene.props],
         (MAX_THROWS, "throws"): [throw.random.count if isinstance(throw, ThrowSeries) else 1 for throw in scene.throws],
         (MAX_ANIMALS, "animals"): [

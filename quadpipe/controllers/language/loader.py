@@ -36,7 +36,7 @@ from quadpipe.controllers.language.templates import (
 )
 from quadpipe.core import configs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
-from quadpipe.core.yamlio import YamlDocument, field_names_at, load_yaml
+from quadpipe.core.yamlio import YamlDocument, field_names_at, kind_of_value, load_yaml
 from quadpipe.core.yamlio import unwrap_annotation as unwrap_annotation  # re-exported
 
 CONTROLLER_KIND = "controllers"
@@ -218,7 +218,7 @@ def _raw_elements(doc: YamlDocument, issues: list[Issue]) -> list[tuple[tuple[An
             issues.append(
                 Issue(
                     "invalid-value",
-                    f"element {index + 1}'s `type` must be a name, not {_kind_of_value(kind)}",
+                    f"element {index + 1}'s `type` must be a name, not {kind_of_value(kind)}",
                     doc.locate(path + ("type",)),
                     f"valid: {', '.join(MODEL_OF_TYPE)}",
                 )
@@ -245,15 +245,6 @@ def _raw_elements(doc: YamlDocument, issues: list[Issue]) -> list[tuple[tuple[An
             continue
         found.append((path, raw))
     return found
-
-
-def _kind_of_value(value: Any) -> str:
-    """What a YAML value is, for a message: `a mapping`, `a list`, `a number`."""
-    if isinstance(value, dict):
-        return "a mapping"
-    if isinstance(value, list):
-        return "a list"
-    return "a yes/no value" if isinstance(value, bool) else "a number"
 
 
 # --------------------------------------------------------------------------- templates
