@@ -135,7 +135,8 @@ def _run_locally(jobs: Sequence[Job], workers: int, display: ProgressDisplay) ->
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start_worker, initargs=(link,))
     futures: dict[Any, Job] = {}
     try:
-        futures = {pool.submit(_run_in_worker, job): job for job in jobs}
+        with signals_deferred():  # a process half started would outlive the batch
+            futures = {pool.submit(_run_in_worker, job): job for job in jobs}
         yield from _collect(futures, display, lambda: _drain(link.reports))
     except BaseException:  # Ctrl-C: running jobs stop within a simulated second, queued ones at once
         link.stop.set()

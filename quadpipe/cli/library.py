@@ -86,7 +86,7 @@ def roles(
     if output is not None:
         from quadpipe.core.outputs import check_distinct, check_suffix
 
-        check_distinct([("-o", output)], [("SKELETON", skeleton)])
+        check_distinct([("-o", output)], [("the skeleton", skeleton)])
         check_suffix("-o", output, ROLE_MAP_SUFFIXES, "a role map (YAML)")
     raw = read_raw_skeleton(skeleton)
     guess = guess_roles(raw)
@@ -118,7 +118,7 @@ def convert(
     from quadpipe.core.outputs import check_distinct, check_suffix
     from quadpipe.world.placement import Placement, world_mjcf
 
-    inputs = [("SOURCE", Path(source)), ("--limits", limits), ("--roles", roles)]
+    inputs = [("the source file", Path(source)), ("the --limits file", limits), ("the --roles file", roles)]
     check_distinct([("-o", output)], [(option, path) for option, path in inputs if path is not None])
     check_suffix("-o", output, MJCF_SUFFIXES, "MJCF (XML)")
     built = built_animal(source, limits, roles, mass)

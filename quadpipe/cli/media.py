@@ -34,7 +34,7 @@ def render(
     from quadpipe.render import builtin_overlays, render_clip
     from quadpipe.render.writers import render_format
 
-    check_distinct([("-o", output) for output in outputs], [("CLIP", clip)] if clip is not None else [])
+    check_distinct([("-o", output) for output in outputs], [("the clip", clip)] if clip is not None else [])
     for output in outputs:
         render_format(output)
         check_writable(output)
@@ -73,7 +73,7 @@ def analyze(
     from quadpipe.exporters.npz import load_clip
 
     named = [(option, path) for option, path in (("-o", output), ("--diagram", diagram)) if path is not None]
-    check_distinct(named, [("CLIP", clip)])
+    check_distinct(named, [("the clip", clip)])
     if output is not None:
         check_suffix("-o", output, (".json",), "the JSON report")
     if diagram is not None:

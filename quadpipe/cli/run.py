@@ -85,7 +85,8 @@ def _bake_and_report(
     from quadpipe.core.atomic import transaction
 
     metrics_path = metrics or outputs[0].with_suffix(METRICS_SUFFIX)
-    _check_bake_outputs(outputs, metrics_path, gait_report, diagram, [animal, controller, scene])
+    metrics_named = ("--metrics", metrics) if metrics else ("the default --metrics", metrics_path)
+    _check_bake_outputs(outputs, metrics_named, gait_report, diagram, [animal, controller, scene])
     with transaction():
         result = bake(
             animal,
@@ -109,17 +110,23 @@ def _bake_and_report(
             write_gait_files(analyze_clip(result.clip), gait_report, diagram)
 
 
+INPUT_OPTIONS = ("--animal", "--controller", "--scene")
+"""The options of `simulate` and `bake` that may name input files."""
+
+
 def _check_bake_outputs(
-    outputs: list[Path], metrics: Path, gait_report: Path | None, diagram: Path | None, inputs: list[str]
+    outputs: list[Path], metrics: tuple[str, Path], gait_report: Path | None, diagram: Path | None, inputs: list[str]
 ) -> None:
     """Before simulating: every output a distinct file, apart from the inputs, of the right suffix, writable."""
     from quadpipe.core.atomic import check_writable
     from quadpipe.core.outputs import check_distinct, check_suffix
     from quadpipe.exporters import check_output_path
 
-    named = [("-o", output) for output in outputs] + [("--metrics", metrics)]
+    named = [("-o", output) for output in outputs] + [metrics]
     named += [(option, path) for option, path in (("--gait-report", gait_report), ("--diagram", diagram)) if path]
-    check_distinct(named, zip(("--animal", "--controller", "--scene"), map(Path, inputs)))
+    check_distinct(
+        named, [(f"the {option} file", Path(name)) for option, name in zip(INPUT_OPTIONS, inputs, strict=True)]
+    )
     for output in outputs:
         check_output_path(output)
     for option, path in named[len(outputs) :]:

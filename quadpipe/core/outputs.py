@@ -14,7 +14,8 @@ from pathlib import Path
 from quadpipe.core.errors import QuadpipeError
 
 Named = tuple[str, Path]
-"""A file and the option (or argument) that named it: `("--metrics", Path("x.json"))`."""
+"""A file and what named it: an output's option (`("--metrics", Path("x.json"))`), an input's
+description (`("the --controller file", Path("walk.yaml"))`, `("the clip", Path("run.npz"))`)."""
 
 
 def check_distinct(outputs: Sequence[Named], inputs: Iterable[Named] = ()) -> None:
@@ -29,7 +30,7 @@ def check_distinct(outputs: Sequence[Named], inputs: Iterable[Named] = ()) -> No
     claimed: dict[Path, str] = {}
     for option, path in inputs:
         if Path(path).is_file():
-            claimed.setdefault(_identity(path), f"the input file of {option}: writing it would destroy the input")
+            claimed.setdefault(_identity(path), f"{option}: writing it would destroy the input")
     for option, path in outputs:
         key = _identity(path)
         if key in claimed:
@@ -56,9 +57,10 @@ def check_suffix(option: str, path: Path, suffixes: Sequence[str], what: str) ->
     """
     suffix = path.suffix.lower()
     if suffix not in suffixes:
+        actual = f"its suffix is {suffix!r}" if suffix else "it has no suffix"
         raise QuadpipeError.single(
             "wrong-suffix",
-            f"{option} {str(path)!r} would hold {what}, which is not a {suffix or 'suffix-less'!r} file",
+            f"{option} {str(path)!r} would hold {what}, but {actual}",
             file=str(path),
             hint=f"name it with {' or '.join(suffixes)}: {path.with_suffix(suffixes[0]).name}",
         )
