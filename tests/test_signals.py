@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 
-from quadpipe.core import atomic
+from quadpipe.core import atomic, signals
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.signals import Interrupted, install_handlers, signals_deferred
 from tests.conftest import REPO
@@ -90,8 +90,10 @@ def test_a_commit_refuses_a_target_that_became_a_folder_and_renames_nothing(tmp_
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b.txt"]
 
 
-def test_a_signal_during_a_deferred_block_is_delivered_after_it():
+def test_a_signal_during_a_deferred_block_is_delivered_after_it(monkeypatch, tmp_path):
     previous = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    monkeypatch.setattr(signals, "_received", [])
+    monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)
     install_handlers()
     steps = []
     try:
@@ -100,6 +102,9 @@ def test_a_signal_during_a_deferred_block_is_delivered_after_it():
             time.sleep(0.05)
             steps.append("block ended")
         assert steps == ["block ended"] and caught.value.exit_code == 143 and caught.value.name == "SIGTERM"
+        with pytest.raises(Interrupted), atomic.transaction():  # once interrupted, nothing more is committed
+            atomic.write_text(tmp_path / "late.txt", "late")
+        assert list(tmp_path.iterdir()) == []
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)

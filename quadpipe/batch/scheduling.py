@@ -2,8 +2,7 @@
 
 `run_batch(plan, ...)` skips jobs whose files are all there (unless `force`), runs the others
 in parallel, shows their progress, and returns a `BatchReport`; a failing job does not stop the
-others. Worker processes start by `forkserver` (or `spawn`), never by forking a process with
-threads; Ctrl-C (or SIGTERM, SIGHUP) stops running jobs within a simulated second and queued
+others. Worker processes start by `spawn`, never by forking a process with threads; Ctrl-C (or SIGTERM, SIGHUP) stops running jobs within a simulated second and queued
 ones at once, and the workers end quietly. Staged files that killed runs left are removed at the
 start and the end of every batch.
 """
@@ -119,9 +118,10 @@ def _worker_count(requested: int | None, jobs: int) -> int:
     return max(1, min(requested or cores, jobs))
 
 
-def _start_method() -> str:
-    """`forkserver` where there is one (Linux, macOS), else `spawn`: never fork a process with threads."""
-    return "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+START_METHOD = "spawn"
+"""How worker processes start: a fresh interpreter each, never a fork of a process with threads.
+Not `forkserver`: its server listens on a Unix socket in a `pymp-*` folder of the temporary
+directory, which a long TMPDIR makes fail (AF_UNIX paths are short) and a killed batch leaves."""
 
 
 def _run_locally(jobs: Sequence[Job], workers: int, display: ProgressDisplay) -> Iterable[JobResult]:
@@ -130,7 +130,7 @@ def _run_locally(jobs: Sequence[Job], workers: int, display: ProgressDisplay) ->
     The workers ignore SIGINT, SIGTERM and SIGHUP (a Ctrl-C reaches every process of the
     terminal): the batch stops them through the link's stop flag and waits for them to end.
     """
-    context = multiprocessing.get_context(_start_method())
+    context = multiprocessing.get_context(START_METHOD)
     link = WorkerLink(context.Queue(), context.Event())
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start_worker, initargs=(link,))
     futures: dict[Any, Job] = {}

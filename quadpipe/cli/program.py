@@ -64,7 +64,8 @@ def main() -> None:
         try:
             app()
         finally:
-            signals.ignore_interrupts()  # the command has ended: a late signal changes nothing
+            signals.ignore_interrupts()  # the command has ended: a later signal changes nothing
+            signals.raise_pending()  # one whose exception was lost on the way
     except QuadpipeError as exc:
         if _state["debug"]:
             raise
@@ -78,11 +79,31 @@ def main() -> None:
     except Exception as exc:  # a bug in quadpipe, not in the user's input
         if _state["debug"]:
             raise
+        interrupt = _interrupt_behind(exc)
+        if interrupt is not None:
+            typer.echo(_interrupted(interrupt), err=True)
+            sys.exit(interrupt.exit_code)
         typer.echo(
             f"internal error: {type(exc).__name__}: {exc}\n  hint: run again with --debug for the traceback, and report it",
             err=True,
         )
         sys.exit(EXIT_INTERNAL_ERROR)
+
+
+def _interrupt_behind(error: BaseException) -> Interrupted | None:
+    """The signal that caused `error`, if one did: a C extension interrupted while it ran Python
+    code reports it as its own error (pybind11 modules, such as MuJoCo's, fail to import with
+    `ImportError: initialization failed`), the interrupt as its cause."""
+    from quadpipe.core.signals import Interrupted
+
+    seen: set[int] = set()
+    cause: BaseException | None = error
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, Interrupted):
+            return cause
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return None
 
 
 def _interrupted(interrupt: Interrupted) -> str:

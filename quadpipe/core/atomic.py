@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import IO
 
 from quadpipe.core.errors import QuadpipeError
-from quadpipe.core.signals import signals_deferred
+from quadpipe.core.signals import raise_pending, signals_deferred
 
 _STAGED = re.compile(r"\.tmp-(\d+)-\w+(\.\w+)?$")
 """The end of a staged file's name: the writing process's id, mkstemp's random letters, a suffix."""
@@ -72,6 +72,7 @@ class Transaction:
             QuadpipeError: `unwritable-output`: a target has become a folder (checked before
                 any rename), or a rename failed (the staged files left are removed).
         """
+        raise_pending()
         with signals_deferred():
             for target in self._staged:
                 if target.is_dir():

@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from types import FrameType
+from typing import Any
 
 INTERRUPTS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 """The signals that interrupt a run."""
@@ -49,19 +51,40 @@ class Interrupted(BaseException):
         return EXIT_BASE + self.signum
 
 
+_received: list[int] = []
+"""The signals `install_handlers`' handler has raised, first first."""
+
+
 def _raise_interrupted(signum: int, _frame: FrameType | None) -> None:
+    _received.append(signum)
     raise Interrupted(signum)
 
 
 def install_handlers() -> None:
     """Make SIGINT, SIGTERM and SIGHUP raise `Interrupted` in the main thread.
 
-    A signal the process was started ignoring (`nohup`, a background job of a script) stays
-    ignored.
+    A handler's exception raised where Python cannot propagate it (a weakref callback of the
+    import system, a `__del__`) is lost: such a lost interrupt is kept quiet here and raised
+    again by `raise_pending`. A signal the process was started ignoring (`nohup`, a background
+    job of a script) stays ignored.
     """
     for signum in INTERRUPTS:
         if signal.getsignal(signum) is not signal.SIG_IGN:
             signal.signal(signum, _raise_interrupted)
+    previous_hook = sys.unraisablehook
+
+    def quiet_interrupts(unraisable: Any) -> None:
+        if not isinstance(unraisable.exc_value, Interrupted):
+            previous_hook(unraisable)
+
+    sys.unraisablehook = quiet_interrupts
+
+
+def raise_pending() -> None:
+    """Raise `Interrupted` if a signal has come since `install_handlers` (its first exception
+    may have been lost: see there); at the points that must not be passed once interrupted."""
+    if _received:
+        raise Interrupted(_received[0])
 
 
 def ignore_interrupts() -> None:
