@@ -335,3 +335,21 @@ def test_an_unreachable_scheduler_is_an_input_error(tmp_path, monkeypatch):
     with pytest.raises(QuadpipeError) as caught:
         run_batch(plan, scheduler="tcp://127.0.0.1:9", progress=False)
     assert caught.value.issues[0].code == "scheduler-unreachable"
+
+
+def test_bake_and_batch_write_the_same_bytes_for_the_same_job(tmp_path, cli):
+    """`quadpipe bake` (fps from the command line, a float) and a batch job (the default fps) agree
+    byte for byte, in every format and in the metrics JSON."""
+    formats = ["glb", "gltf", "usdc", "bvh", "npz"]
+    plan = BatchPlan(animals=["dog"], controllers=["rigid"], seconds=SECONDS, formats=formats)
+    report = run_batch(plan.model_copy(update={"output": str(tmp_path / "batch")}), workers=1, progress=False)
+    assert report.exit_code == 0
+    (tmp_path / "bake").mkdir()
+    name = "dog_rigid_flat"
+    outputs = [arg for fmt in formats for arg in ("-o", f"{name}.{fmt}")]
+    baked = cli("bake", "-a", "dog", "-c", "rigid", "-s", str(SECONDS), *outputs, cwd=tmp_path / "bake")
+    assert baked.returncode == 0, baked.stderr
+    names = listing(tmp_path / "batch")
+    assert names == listing(tmp_path / "bake") and f"{name}.metrics.json" in names and f"{name}.bin" in names
+    for file_name in names:
+        assert (tmp_path / "bake" / file_name).read_bytes() == (tmp_path / "batch" / file_name).read_bytes(), file_name

@@ -1,8 +1,8 @@
 """Baking: one simulation written into clip files (the suffix picks the format) and a metrics JSON.
 
-`quadpipe simulate` and `quadpipe bake` bake once, straight into their files; every batch job
-bakes the same way into a staging folder, then renames the files into place
-(`quadpipe.batch.jobs`).
+`quadpipe simulate`, `quadpipe bake` and every batch job (`quadpipe.batch.jobs`) bake through
+`bake`: the files are staged beside their targets and renamed into place together when all are
+written, or none is (`quadpipe.core.atomic.transaction`).
 """
 
 from __future__ import annotations
@@ -36,14 +36,14 @@ def bake(
     places: Mapping[str, Location] | None = None,
 ) -> Result:
     """Simulate once (see `quadpipe.sim.simulation.simulate`), write the clip into every output,
-    then the metrics JSON. `places` says where each of `parameters` was written (a batch
-    plan's line), for messages.
+    then the metrics JSON: all of them, or none (inside a running `transaction`, at its commit).
+    `places` says where each of `parameters` was written (a batch plan's line), for messages.
 
     Raises:
         QuadpipeError: the inputs cannot be loaded, the simulation blew up, a file cannot be
             written.
     """
-    from quadpipe.core.atomic import write_text
+    from quadpipe.core.atomic import transaction, write_text
     from quadpipe.exporters import export_clip
     from quadpipe.sim.simulation import simulate
 
@@ -57,7 +57,8 @@ def bake(
         fps=fps,
         places=places,
     )
-    for output in outputs:
-        export_clip(result.clip, output)
-    write_text(metrics_path, json.dumps(result.metrics, indent=2) + "\n")
+    with transaction():
+        for output in outputs:
+            export_clip(result.clip, output)
+        write_text(metrics_path, json.dumps(result.metrics, indent=2) + "\n")
     return result

@@ -1,16 +1,15 @@
 """Batch jobs: one simulation each, baked into its files (all of them or none).
 
 `expand_jobs(plan)` turns a plan into `Job`s, plain picklable data; `run_job(job)` bakes one
-(its files are written into a hidden staging folder and renamed into place, the metrics JSON
+(its files are staged beside their targets and renamed into place together, the metrics JSON
 last), reporting progress to its batch through a `WorkerLink` when it runs in a worker.
 """
 
 from __future__ import annotations
 
+import glob
 import json
-import os
 import shutil
-import tempfile
 import time
 from dataclasses import dataclass
 from enum import Enum
@@ -19,6 +18,7 @@ from typing import Any
 
 from quadpipe.batch.bake import METRICS_SUFFIX, bake
 from quadpipe.batch.plan import BatchPlan, expand_names, label, looks_like_path
+from quadpipe.core.atomic import remove_stale
 from quadpipe.core.errors import Location, QuadpipeError
 
 PROGRESS_STEP_S = 1.0
@@ -225,38 +225,28 @@ def run_job(job: Job, link: WorkerLink | None = None) -> JobResult:
 
 
 def _bake(job: Job, link: WorkerLink | None) -> dict:
-    """Simulate and write the files into a hidden staging folder, then rename them into place."""
-    staging = Path(_staging_folder(job))
-    try:
-        result = bake(
-            job.animal,
-            job.controller,
-            seconds=job.seconds,
-            scene=job.scene,
-            parameters=dict(job.parameters),
-            places=dict(job.parameter_places),
-            outputs=[staging / output.name for output in job.outputs],
-            metrics_path=staging / job.metrics_path.name,
-            on_frame=_ProgressTicker(job.name, link) if link is not None else None,
-        )
-        for path in job.files:
-            os.replace(staging / path.name, path)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+    """Simulate and write the job's files, all of them or none (`quadpipe.batch.bake`)."""
+    result = bake(
+        job.animal,
+        job.controller,
+        seconds=job.seconds,
+        scene=job.scene,
+        parameters=dict(job.parameters),
+        places=dict(job.parameter_places),
+        outputs=job.outputs,
+        metrics_path=job.metrics_path,
+        on_frame=_ProgressTicker(job.name, link) if link is not None else None,
+    )
     return result.metrics
 
 
-def _staging_folder(job: Job) -> str:
-    """A fresh hidden folder beside the job's files (same file system, so renames are atomic)."""
-    try:
-        return tempfile.mkdtemp(prefix=f".{job.name}.partial-", dir=job.folder)
-    except OSError as exc:
-        raise QuadpipeError.single(
-            "unwritable-output",
-            f"cannot write into {job.folder!r}: {exc.strerror}",
-            file=job.folder,
-            hint="check that the output folder exists and is writable (on every Dask worker too)",
-        ) from None
+def remove_leftovers(job: Job) -> None:
+    """Remove what killed runs of the job left: staged files of processes that no longer run, and
+    the staging folders (`.<job>.partial-*`) where earlier versions of quadpipe staged a job's files."""
+    folder = Path(job.folder)
+    remove_stale(folder / f"{glob.escape(job.name)}.*")
+    for staging in folder.glob(f".{glob.escape(job.name)}.partial-*"):
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def _result_from_files(job: Job, outcome: Outcome, wall_s: float, metrics: dict | None) -> JobResult:

@@ -2,8 +2,9 @@
 
 `run_batch(plan, ...)` skips jobs whose files are all there (unless `force`), runs the others
 in parallel, shows their progress, and returns a `BatchReport`; a failing job does not stop the
-others. Worker processes start by `forkserver` (or `spawn`), never by forking a process with
-threads; Ctrl-C stops running jobs within a simulated second and queued ones at once.
+others. Worker processes start by `spawn`, never by forking a process with threads; Ctrl-C (or SIGTERM, SIGHUP) stops running jobs within a simulated second and queued
+ones at once, and the workers end quietly. Staged files that killed runs left are removed at the
+start and the end of every batch.
 """
 
 from __future__ import annotations
@@ -18,11 +19,22 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from quadpipe.batch.jobs import Job, JobResult, Outcome, WorkerLink, expand_jobs, run_job, skipped_result
+from quadpipe.batch.jobs import (
+    Job,
+    JobResult,
+    Outcome,
+    WorkerLink,
+    expand_jobs,
+    remove_leftovers,
+    run_job,
+    skipped_result,
+)
 from quadpipe.batch.plan import BatchPlan
 from quadpipe.batch.report import BatchReport, ProgressDisplay
+from quadpipe.core.atomic import note_written
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.limits import MAX_WORKERS
+from quadpipe.core.signals import ignore_interrupts, signals_deferred
 
 POLL_S = 0.1
 """Wall-clock seconds between two looks at the running jobs and their progress reports."""
@@ -62,20 +74,27 @@ def run_batch(
     done = {job.name for job in jobs if not force and job.finished()}
     todo = [job for job in jobs if job.name not in done]
     results = {job.name: skipped_result(job) for job in jobs if job.name in done}
-    with ProgressDisplay(jobs, done=len(results), enabled=progress) as display:
-        if todo:
-            finished = (
-                _run_on_dask(todo, scheduler, display)
-                if scheduler
-                else _run_locally(todo, _worker_count(workers, len(todo)), display)
-            )
-            for result in finished:
-                results[result.job.name] = result
+    try:
+        with ProgressDisplay(jobs, done=len(results), enabled=progress) as display:
+            if todo:
+                finished = (
+                    _run_on_dask(todo, scheduler, display)
+                    if scheduler
+                    else _run_locally(todo, _worker_count(workers, len(todo)), display)
+                )
+                for result in finished:
+                    results[result.job.name] = result
+                    if result.outcome is Outcome.ok:
+                        note_written(result.job.files)
+    finally:
+        for job in todo:
+            remove_leftovers(job)
     return BatchReport([results[job.name] for job in jobs])
 
 
 def _prepare_folder(jobs: Sequence[Job]) -> None:
-    """Create the output folder and check, before any simulation, that every file can be written."""
+    """Create the output folder, check before any simulation that every file can be written, and
+    remove what killed runs left there."""
     from quadpipe.exporters import check_output_path
 
     if not jobs:
@@ -92,6 +111,8 @@ def _prepare_folder(jobs: Sequence[Job]) -> None:
         ) from None
     for path in jobs[0].outputs:
         check_output_path(path)
+    for job in jobs:
+        remove_leftovers(job)
 
 
 def _worker_count(requested: int | None, jobs: int) -> int:
@@ -100,25 +121,56 @@ def _worker_count(requested: int | None, jobs: int) -> int:
     return max(1, min(requested or cores, jobs))
 
 
-def _start_method() -> str:
-    """`forkserver` where there is one (Linux, macOS), else `spawn`: never fork a process with threads."""
-    return "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+START_METHOD = "spawn"
+"""How worker processes start: a fresh interpreter each, never a fork of a process with threads.
+Not `forkserver`: its server listens on a Unix socket in a `pymp-*` folder of the temporary
+directory, which a long TMPDIR makes fail (AF_UNIX paths are short) and a killed batch leaves."""
 
 
 def _run_locally(jobs: Sequence[Job], workers: int, display: ProgressDisplay) -> Iterable[JobResult]:
-    """Run jobs in `workers` processes, yielding results as they finish."""
-    context = multiprocessing.get_context(_start_method())
-    with context.Manager() as manager:
-        link = WorkerLink(manager.Queue(), manager.Event())
-        pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
-        try:
-            futures = {pool.submit(run_job, job, link): job for job in jobs}
-            yield from _collect(futures, display, lambda: _drain(link.reports))
-        except BaseException:  # Ctrl-C: running jobs stop within a simulated second, queued ones at once
-            link.stop.set()
-            raise
-        finally:
+    """Run jobs in `workers` processes, yielding results as they finish.
+
+    The workers ignore SIGINT, SIGTERM and SIGHUP (a Ctrl-C reaches every process of the
+    terminal): the batch stops them through the link's stop flag and waits for them to end.
+    """
+    context = multiprocessing.get_context(START_METHOD)
+    link = WorkerLink(context.Queue(), context.Event())
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start_worker, initargs=(link,))
+    futures: dict[Any, Job] = {}
+    try:
+        with signals_deferred():  # a process half started would outlive the batch
+            futures = {pool.submit(_run_in_worker, job): job for job in jobs}
+        yield from _collect(futures, display, lambda: _drain(link.reports))
+    except BaseException:  # Ctrl-C: running jobs stop within a simulated second, queued ones at once
+        link.stop.set()
+        with signals_deferred():
             pool.shutdown(wait=True, cancel_futures=True)
+        note_written(_files_written(futures))
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+_worker_link: WorkerLink | None = None
+"""In a worker process: its link to the batch (set by `_start_worker`)."""
+
+
+def _start_worker(link: WorkerLink) -> None:
+    """A worker process's start: keep the link, and leave interrupting to the batch."""
+    global _worker_link
+    _worker_link = link
+    ignore_interrupts()
+
+
+def _run_in_worker(job: Job) -> JobResult:
+    """`run_job` in a worker process, linked to its batch."""
+    return run_job(job, _worker_link)
+
+
+def _files_written(futures: dict[Any, Job]) -> list[Path]:
+    """The files of the jobs that ended well (after an interruption, as reported by their futures)."""
+    ended = [future for future in futures if future.done() and not future.cancelled() and not future.exception()]
+    return [path for future in ended if future.result().outcome is Outcome.ok for path in futures[future].files]
 
 
 def _drain(reports: queue.Queue[tuple[str, float]]) -> list[tuple[str, float]]:

@@ -16,6 +16,13 @@ if TYPE_CHECKING:
     from quadpipe.animals.model import BuiltAnimal
 
 
+MJCF_SUFFIXES = (".xml", ".mjcf")
+"""Suffixes of the MJCF files `convert` writes."""
+
+ROLE_MAP_SUFFIXES = (".yaml", ".yml")
+"""Suffixes of the role maps `roles -o` writes."""
+
+
 def built_animal(source: str, limits: Path | None, roles: Path | None, mass: float | None) -> BuiltAnimal:
     """Resolve and build an animal, printing its warnings."""
     from quadpipe.animals.library import resolve_animal
@@ -76,6 +83,11 @@ def roles(
     from quadpipe.anatomy.rolemap import write_role_map
     from quadpipe.importers import read_raw_skeleton
 
+    if output is not None:
+        from quadpipe.core.outputs import check_distinct, check_suffix
+
+        check_distinct([("-o", output)], [("the skeleton", skeleton)])
+        check_suffix("-o", output, ROLE_MAP_SUFFIXES, "a role map (YAML)")
     raw = read_raw_skeleton(skeleton)
     guess = guess_roles(raw)
     placed = {role: name for name, role in guess.roles.items()}
@@ -103,8 +115,12 @@ def convert(
     Example: quadpipe convert dog -o dog.xml
     """
     from quadpipe.core.atomic import write_text
+    from quadpipe.core.outputs import check_distinct, check_suffix
     from quadpipe.world.placement import Placement, world_mjcf
 
+    inputs = [("the source file", Path(source)), ("the --limits file", limits), ("the --roles file", roles)]
+    check_distinct([("-o", output)], [(option, path) for option, path in inputs if path is not None])
+    check_suffix("-o", output, MJCF_SUFFIXES, "MJCF (XML)")
     built = built_animal(source, limits, roles, mass)
     write_text(output, world_mjcf([Placement(built.animal.name, built)], floor=floor))
     typer.echo(

@@ -29,8 +29,15 @@ def render(
 
     Example: quadpipe render run.npz -o run.mp4 -o sheet.png   |   quadpipe render --controller spine_walk --scene hill -o walk.mp4
     """
+    from quadpipe.core.atomic import check_writable, transaction
+    from quadpipe.core.outputs import check_distinct
     from quadpipe.render import builtin_overlays, render_clip
+    from quadpipe.render.writers import render_format
 
+    check_distinct([("-o", output) for output in outputs], [("the clip", clip)] if clip is not None else [])
+    for output in outputs:
+        render_format(output)
+        check_writable(output)
     if clip is not None:
         from quadpipe.exporters.npz import load_clip
 
@@ -42,8 +49,10 @@ def render(
             animal, controller, seconds=seconds, scene=scene, parameters=parse_parameters(parameters)
         ).clip
     names = [] if overlays == "none" else [name.strip() for name in overlays.split(",") if name.strip()]
+    with transaction():
+        for output in outputs:
+            render_clip(baked, output, width=width, height=height, overlays=builtin_overlays(baked, names))
     for output in outputs:
-        render_clip(baked, output, width=width, height=height, overlays=builtin_overlays(baked, names))
         typer.echo(f"wrote {output}")
 
 
@@ -60,8 +69,13 @@ def analyze(
     Example: quadpipe analyze run.npz -o report.json --diagram footfalls.png
     """
     from quadpipe.analysis import analyze_clip, check_diagram_path, format_report
+    from quadpipe.core.outputs import check_distinct, check_suffix
     from quadpipe.exporters.npz import load_clip
 
+    named = [(option, path) for option, path in (("-o", output), ("--diagram", diagram)) if path is not None]
+    check_distinct(named, [("the clip", clip)])
+    if output is not None:
+        check_suffix("-o", output, (".json",), "the JSON report")
     if diagram is not None:
         check_diagram_path(diagram)
     report = analyze_clip(load_clip(clip), animal)

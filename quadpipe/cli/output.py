@@ -33,13 +33,15 @@ def print_warnings(issues: Iterable[Issue]) -> None:
 
 
 def write_gait_files(report: GaitReport, report_path: Path | None, diagram: Path | None) -> None:
-    """Write a gait analysis as JSON and its footfall diagram as PNG (either may be None)."""
+    """Write a gait analysis as JSON and its footfall diagram as PNG (either may be None): both, or neither."""
     from quadpipe.analysis import draw_footfall_diagram
-    from quadpipe.core.atomic import write_text
+    from quadpipe.core.atomic import transaction, write_text
 
-    if report_path is not None:
-        write_text(report_path, report.to_json())
-        typer.echo(f"wrote {report_path}")
-    if diagram is not None:
-        draw_footfall_diagram(report, diagram)
-        typer.echo(f"wrote {diagram}")
+    with transaction():
+        if report_path is not None:
+            write_text(report_path, report.to_json())
+        if diagram is not None:
+            draw_footfall_diagram(report, diagram)
+    for written in (report_path, diagram):
+        if written is not None:
+            typer.echo(f"wrote {written}")

@@ -79,43 +79,66 @@ def _bake_and_report(
     gait_report: Path | None,
     diagram: Path | None,
 ) -> None:
-    """`simulate` and `bake`: check every output path first, bake, print the figures, then the gait files."""
+    """`simulate` and `bake`: check every output path first, bake, print the figures, write the gait
+    files: every file, or none (they are renamed into place together at the end)."""
     from quadpipe.batch.bake import METRICS_SUFFIX, bake
-    from quadpipe.core.atomic import check_writable
+    from quadpipe.core.atomic import transaction
     from quadpipe.core.limits import check_run
-    from quadpipe.exporters import check_output_path
 
     check_run(seconds, fps, names=("--seconds", "--fps"))
+    metrics_path = metrics or outputs[0].with_suffix(METRICS_SUFFIX)
+    metrics_named = ("--metrics", metrics) if metrics else ("the default --metrics", metrics_path)
+    _check_bake_outputs(outputs, metrics_named, gait_report, diagram, [animal, controller, scene])
+    with transaction():
+        result = bake(
+            animal,
+            controller,
+            seconds=seconds,
+            outputs=outputs,
+            metrics_path=metrics_path,
+            scene=scene,
+            parameters=parse_parameters(parameters),
+            fps=fps,
+        )
+        typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
+        for name, figures in result.metrics["animals"].items():
+            typer.echo(
+                f"  {name}: {figures['distance_hp']:.2f} HP travelled, pelvis {figures['pelvis_height_min_hp']:.2f}-"
+                f"{figures['pelvis_height_max_hp']:.2f} HP{', FELL' if figures['fell'] else ''}"
+            )
+        if gait_report is not None or diagram is not None:
+            from quadpipe.analysis import analyze_clip
+
+            write_gait_files(analyze_clip(result.clip), gait_report, diagram)
+
+
+INPUT_OPTIONS = ("--animal", "--controller", "--scene")
+"""The options of `simulate` and `bake` that may name input files."""
+
+
+def _check_bake_outputs(
+    outputs: list[Path], metrics: tuple[str, Path], gait_report: Path | None, diagram: Path | None, inputs: list[str]
+) -> None:
+    """Before simulating: every output a distinct file, apart from the inputs, of the right suffix, writable."""
+    from quadpipe.core.atomic import check_writable
+    from quadpipe.core.outputs import check_distinct, check_suffix
+    from quadpipe.exporters import check_output_path
+
+    named = [("-o", output) for output in outputs] + [metrics]
+    named += [(option, path) for option, path in (("--gait-report", gait_report), ("--diagram", diagram)) if path]
+    check_distinct(
+        named, [(f"the {option} file", Path(name)) for option, name in zip(INPUT_OPTIONS, inputs, strict=True)]
+    )
     for output in outputs:
         check_output_path(output)
-    for extra in (metrics, gait_report, diagram):
-        if extra is not None:
-            check_writable(extra)
-    if diagram is not None:
-        from quadpipe.analysis import check_diagram_path
+    for option, path in named[len(outputs) :]:
+        check_writable(path)
+        if option == "--diagram":
+            from quadpipe.analysis import check_diagram_path
 
-        check_diagram_path(diagram)
-    metrics_path = metrics or outputs[0].with_suffix(METRICS_SUFFIX)
-    result = bake(
-        animal,
-        controller,
-        seconds=seconds,
-        outputs=outputs,
-        metrics_path=metrics_path,
-        scene=scene,
-        parameters=parse_parameters(parameters),
-        fps=fps,
-    )
-    typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
-    for name, figures in result.metrics["animals"].items():
-        typer.echo(
-            f"  {name}: {figures['distance_hp']:.2f} HP travelled, pelvis {figures['pelvis_height_min_hp']:.2f}-"
-            f"{figures['pelvis_height_max_hp']:.2f} HP{', FELL' if figures['fell'] else ''}"
-        )
-    if gait_report is not None or diagram is not None:
-        from quadpipe.analysis import analyze_clip
-
-        write_gait_files(analyze_clip(result.clip), gait_report, diagram)
+            check_diagram_path(path)
+        else:
+            check_suffix(option, path, (".json",), "JSON")
 
 
 def batch(
@@ -186,7 +209,8 @@ def preview(
     F1-F6 overlays, c free camera, h help.
     Example: quadpipe preview --animal dog --controller my_walk.yaml --scene hill   |   quadpipe preview run.npz
     """
-    from quadpipe.preview.window import check_display, open_window
+    from quadpipe.preview.display import check_display
+    from quadpipe.preview.window import open_window
 
     model: Preview
     if clip is not None:  # a bad clip is refused before anything looks for a display
@@ -200,4 +224,5 @@ def preview(
 
         model = LivePreview(animal, controller, scene, parse_parameters(parameters))
         title = f"quadpipe preview: {animal} / {controller} / {scene}"
+    check_display()
     open_window(model, title)

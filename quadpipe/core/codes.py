@@ -55,6 +55,8 @@ GROUPS: tuple[CodeGroup, ...] = (
             "unused-option": "an option for a bare skeleton file (`--mass`, `--limits`, `--roles`) given with an animal name or config",
             "unknown-format": "a file suffix or `--format` that quadpipe cannot read or write",
             "unwritable-output": "an output path that cannot be written (a folder, no permission, a missing drive)",
+            "output-collision": "two outputs naming one file, or an output naming an input file",
+            "wrong-suffix": "an output whose suffix does not match what is written into it (MJCF into a .glb)",
             "unknown-animal": "an animal name that is not built in (or, for `analyze`, not in the clip)",
             "unknown-controller": "`--controller` or `extends` names no built-in controller",
             "unknown-scene": "`--scene` names no built-in scene",
@@ -161,6 +163,7 @@ GROUPS: tuple[CodeGroup, ...] = (
         "Controllers",
         "Controller files (`configs/controllers/*.yaml`), as `quadpipe validate` checks them.",
         {
+            "no-controllers": "`validate` given a folder holding no controller file",
             "extends-cycle": "controllers extend each other in a loop",
             "unknown-element-type": "an element `type` that does not exist",
             "template-name": "an element or a parameter with `for_each` whose name lacks {leg}",

@@ -6,7 +6,8 @@ needs when it is optional. Modules are imported only when their format is writte
 whose package is missing is listed as unavailable with its install hint, failing only when it is
 used. To add a format, write a module and add an entry to `CLIP_FORMATS`.
 
-Every write is atomic: a failed export never leaves a partial file behind.
+Every write is atomic (`quadpipe.core.atomic`): a failed export never leaves a partial file
+behind, nor a `.gltf` without its `.bin`.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from quadpipe.clip.model import Clip
-from quadpipe.core.atomic import check_writable
+from quadpipe.core.atomic import check_writable, transaction
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.formats import FileFormat, FormatTable
 
@@ -136,7 +137,8 @@ def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False) ->
             hint="give a file name, e.g. clip" + path.suffix.lower(),
         )
     try:
-        writer(clip, path)
+        with transaction():
+            writer(clip, path)
     except OSError as exc:
         raise QuadpipeError.single(
             "unwritable-output",

@@ -25,7 +25,7 @@ import numpy as np
 from quadpipe.clip.kinematics import continuous, local_poses, normalize, quat_to_y_up, rest_offsets, to_y_up
 from quadpipe.clip.meshes import TriangleMesh, merge, shape_mesh, shapes_mesh
 from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
-from quadpipe.core.atomic import write_bytes
+from quadpipe.core.atomic import transaction, write_bytes
 from quadpipe.core.version import __version__
 
 GLB_MAGIC = 0x46546C67
@@ -147,7 +147,7 @@ def build(clip: Clip, uri: str | None = None) -> tuple[dict[str, Any], bytes]:
         uri: the external buffer's file name (`.gltf`), None for a GLB's embedded buffer.
     """
     doc = _Document(clip.times())
-    doc.json["asset"]["extras"] = {"fps": clip.fps, **clip.metadata}
+    doc.json["asset"]["extras"] = {"fps": float(clip.fps), **clip.metadata}
     for track in clip.animals:
         _add_animal(doc, track, prefix=f"{track.name}_" if len(clip.animals) > 1 else "")
     for prop in clip.props:
@@ -262,9 +262,6 @@ def export_gltf(clip: Clip, path: Path) -> None:
     """glTF 2.0 JSON with its .bin buffer beside it (same content as .glb)."""
     bin_path = path.with_suffix(".bin")
     document, binary = build(clip, uri=bin_path.name)
-    write_bytes(bin_path, binary)
-    try:
+    with transaction():
+        write_bytes(bin_path, binary)
         write_bytes(path, _json_bytes(document, b" "))
-    except BaseException:
-        bin_path.unlink(missing_ok=True)
-        raise

@@ -29,7 +29,8 @@ import numpy as np
 from quadpipe.clip.kinematics import continuous, local_poses, normalize, rest_offsets
 from quadpipe.clip.meshes import TriangleMesh, shape_mesh, shapes_mesh
 from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
-from quadpipe.core.atomic import atomic_path
+from quadpipe.core.atomic import atomic_path, scratch_path
+from quadpipe.core.signals import signals_deferred
 from quadpipe.core.version import __version__
 
 if TYPE_CHECKING:
@@ -199,9 +200,8 @@ def _export_layer(stage: Usd.Stage, target: Path) -> None:
 
 
 def _export_layer_file(clip: Clip, path: Path) -> None:
-    with atomic_path(path, path.suffix.lower()) as temporary:
+    with atomic_path(path, path.suffix.lower()) as temporary, signals_deferred():
         _export_layer(build_stage(clip), temporary)
-        os.replace(temporary, path)
 
 
 def export_usda(clip: Clip, path: Path) -> None:
@@ -216,12 +216,11 @@ def export_usdc(clip: Clip, path: Path) -> None:
 
 def export_usdz(clip: Clip, path: Path) -> None:
     """OpenUSD package: the .usdc layer in a zip, for AR Quick Look and sharing."""
-    from pxr import Sdf
+    with scratch_path(path, ".usdc") as layer, atomic_path(path, ".usdz") as package, signals_deferred():
+        from pxr import Sdf
 
-    with atomic_path(path, ".usdc") as layer, atomic_path(path, ".usdz") as package:
         _export_layer(build_stage(clip), layer)
         os.utime(layer, (PACKAGED_LAYER_MTIME, PACKAGED_LAYER_MTIME))
         writer = Sdf.ZipFileWriter.CreateNew(str(package))
         writer.AddFile(str(layer), f"{path.stem}.usdc")
         writer.Save()
-        os.replace(package, path)

@@ -16,7 +16,6 @@ open3d is imported inside the functions that need it: importing this module is c
 from __future__ import annotations
 
 import math
-import os
 import sys
 import time
 from collections.abc import Sequence
@@ -27,7 +26,7 @@ import numpy as np
 from quadpipe.clip.kinematics import to_matrix
 from quadpipe.clip.meshes import TriangleMesh, merge, shape_mesh
 from quadpipe.clip.model import Shape
-from quadpipe.core.errors import QuadpipeError
+from quadpipe.preview.display import check_display
 from quadpipe.preview.scenery import OverlayLayer, Pose, Scenery
 
 if TYPE_CHECKING:
@@ -348,20 +347,6 @@ def help_text(preview: Preview) -> str:
         what = WINDOW_ACTIONS.get(action) or actions[action][0]
         lines.append(f"  {key.lower():>8}  {what}")
     return "keys:\n" + "\n".join(lines) + "\n  mouse     orbit (left), pan (middle or ctrl), zoom (wheel)"
-
-
-def check_display() -> None:
-    """Raise unless a window can be opened (a display on Linux).
-
-    Raises:
-        QuadpipeError: `no-display`.
-    """
-    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        raise QuadpipeError.single(
-            "no-display",
-            "the preview opens a window, and there is no display here (DISPLAY is not set)",
-            hint="run it on a desktop (or over `ssh -X`); headless, `quadpipe render` writes videos",
-        )
 
 
 class PreviewWindow:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -68,6 +67,19 @@ def render_clip(
     """
     path = Path(output_path)
     suffix = path.suffix.lower()
+    writer = render_format(path).load(path)
+    options = RenderOptions(width, height, fps, camera, overlays, grid)
+    options.check(clip, suffix)
+    with atomic_path(path, suffix=suffix) as temporary:
+        writer(clip, temporary, options)
+
+
+def render_format(path: Path) -> FileFormat:
+    """The render format a path's suffix names.
+
+    Raises:
+        QuadpipeError: `unknown-format`, listing the formats.
+    """
     fmt = RENDER_FORMATS.find(path)
     if fmt is None:
         raise QuadpipeError.single(
@@ -76,12 +88,7 @@ def render_clip(
             file=str(path),
             hint=f"supported: {', '.join(f'{s} ({f.description})' for s, f in RENDER_FORMATS.items())}",
         )
-    writer = fmt.load(path)
-    options = RenderOptions(width, height, fps, camera, overlays, grid)
-    options.check(clip, suffix)
-    with atomic_path(path, suffix=suffix) as temporary:
-        writer(clip, temporary, options)
-        os.replace(temporary, path)
+    return fmt
 
 
 @dataclass(frozen=True)

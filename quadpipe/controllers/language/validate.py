@@ -21,7 +21,7 @@ from pathlib import Path
 
 from quadpipe.controllers.language.semantics import analyze_controller
 from quadpipe.core import codes
-from quadpipe.core.errors import Issue, QuadpipeError
+from quadpipe.core.errors import Issue, Location, QuadpipeError
 
 FORMATS: tuple[str, ...] = ("text", "json", "github")
 """Output formats of `validate_files`."""
@@ -116,11 +116,25 @@ def expand_paths(paths: Iterable[str | Path]) -> list[str]:
 
 def collect_issues(paths: Sequence[str | Path]) -> list[Issue]:
     """Every issue of every controller named, files in the order given."""
-    issues: list[Issue] = []
+    issues: list[Issue] = [_empty_folder(path) for path in paths if _is_empty_folder(path)]
     for path in expand_paths(paths):
         _, found = analyze_controller(path)
         issues.extend(_displayed(issue) for issue in found if _displayed(issue) not in issues)
     return issues
+
+
+def _is_empty_folder(path: str | Path) -> bool:
+    """Whether `path` is a folder holding no controller file (`*.yaml`)."""
+    return Path(path).is_dir() and not any(Path(path).glob("*.yaml"))
+
+
+def _empty_folder(path: str | Path) -> Issue:
+    return Issue(
+        "no-controllers",
+        "this folder holds no controller files (*.yaml): nothing was checked",
+        Location(str(path)),
+        hint="name controller files, or a folder holding some",
+    )
 
 
 def format_text(issues: Sequence[Issue], checked: int) -> str:
