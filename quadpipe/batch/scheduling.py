@@ -2,9 +2,10 @@
 
 `run_batch(plan, ...)` skips jobs whose files are all there (unless `force`), runs the others
 in parallel, shows their progress, and returns a `BatchReport`; a failing job does not stop the
-others. Worker processes start by `spawn`, never by forking a process with threads; Ctrl-C (or SIGTERM, SIGHUP) stops running jobs within a simulated second and queued
-ones at once, and the workers end quietly. Staged files that killed runs left are removed at the
-start and the end of every batch.
+others. Worker processes start by `spawn`, never by forking a process with threads. Ctrl-C (or
+SIGTERM, SIGHUP) stops running jobs within a simulated second and queued ones at once, and the
+workers end quietly. Staged files that killed runs left are removed at the start and the end of
+every batch.
 """
 
 from __future__ import annotations
