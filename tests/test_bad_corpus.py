@@ -4,7 +4,8 @@ Each case is a folder `tests/fixtures/bad_corpus/<group>/<case>/` holding:
 
 - `case.yaml`: `args` (the command line after `quadpipe`), optionally `exit` (default 1),
   `timeout_s` (default 60: a hang fails the case), `stdin`, `env` (extra variables), `creates`
-  (files the command may leave, e.g. a valid output next to a refused one), `generate` (inputs
+  (files the command may leave, e.g. a valid output next to a refused one), `mask` (regexes for
+  what changes from run to run, such as a batch summary's wall-clock column), `generate` (inputs
   too big or too binary to commit, made by a named recipe in `GENERATORS`, e.g.
   `{file: big.xml, recipe: many_joints_xml, count: 10000}`);
 - `expected.txt`: the exact standard error, then the standard output if any after a line
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -210,7 +212,7 @@ def case_id(folder: Path) -> str:
 def load_case(folder: Path) -> dict[str, Any]:
     """A case's `case.yaml`, checked for its keys."""
     case = yaml.safe_load((folder / "case.yaml").read_text())
-    unknown = set(case) - {"args", "exit", "timeout_s", "stdin", "env", "creates", "generate", "why"}
+    unknown = set(case) - {"args", "exit", "timeout_s", "stdin", "env", "creates", "generate", "mask", "why"}
     assert not unknown, f"{case_id(folder)}: unknown keys {sorted(unknown)}"
     assert isinstance(case.get("args"), list), f"{case_id(folder)}: `args` must be a list"
     return case
@@ -231,10 +233,13 @@ STDOUT_MARK = "--- stdout ---\n"
 """In `expected.txt`, what follows this line is the standard output (`validate` reports there)."""
 
 
-def shown(result: subprocess.CompletedProcess[str], work: Path) -> str:
+def shown(result: subprocess.CompletedProcess[str], work: Path, masks: list[str] | None = None) -> str:
     """What the user saw: standard error, then standard output after `STDOUT_MARK` if there was any,
-    with the case's folder as `{tmp}` and the repository as `{repo}`."""
+    with the case's folder as `{tmp}`, the repository as `{repo}`, and what the case's `mask`
+    regexes match (wall-clock times) as `{masked}`."""
     text = result.stderr + (STDOUT_MARK + result.stdout if result.stdout else "")
+    for mask in masks or []:
+        text = re.sub(mask, "{masked}", text)
     return text.replace(str(work), "{tmp}").replace(str(REPO), "{repo}")
 
 
@@ -276,7 +281,7 @@ def test_bad_input_gets_its_one_clear_answer(folder: Path, tmp_path: Path, reque
     env = dict(os.environ, COLUMNS="200", NO_COLOR="1", TMPDIR=str(private_tmp), PYTHONPATH=str(REPO))
     env.update({k: str(v) for k, v in (case.get("env") or {}).items()})
     result = run_quadpipe(case, work, env)
-    seen = shown(result, work)
+    seen = shown(result, work, case.get("mask"))
     expected_path = folder / "expected.txt"
     if os.environ.get("QUADPIPE_BLESS"):
         expected_path.write_text(seen)

@@ -71,7 +71,7 @@ def run_batch(
     if workers is not None:
         MAX_WORKERS.check(workers)
     jobs = expand_jobs(plan)
-    _prepare_folder(jobs)
+    made = _prepare_folder(jobs)
     done = {job.name for job in jobs if not force and job.finished()}
     todo = [job for job in jobs if job.name not in done]
     results = {job.name: skipped_result(job) for job in jobs if job.name in done}
@@ -90,17 +90,19 @@ def run_batch(
     finally:
         for job in todo:
             remove_leftovers(job)
+        _remove_if_empty(made)
     return BatchReport([results[job.name] for job in jobs])
 
 
-def _prepare_folder(jobs: Sequence[Job]) -> None:
+def _prepare_folder(jobs: Sequence[Job]) -> list[Path]:
     """Create the output folder, check before any simulation that every file can be written, and
-    remove what killed runs left there."""
+    remove what killed runs left there. Returns the folders it made (outermost first)."""
     from quadpipe.exporters import check_output_path
 
     if not jobs:
-        return
+        return []
     folder = Path(jobs[0].folder)
+    made = [parent for parent in reversed([folder, *folder.parents]) if not parent.exists()]
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -114,6 +116,16 @@ def _prepare_folder(jobs: Sequence[Job]) -> None:
         check_output_path(path)
     for job in jobs:
         remove_leftovers(job)
+    return made
+
+
+def _remove_if_empty(folders: list[Path]) -> None:
+    """Remove the folders a batch made if it wrote nothing into them (innermost first)."""
+    for folder in reversed(folders):
+        try:
+            folder.rmdir()
+        except OSError:  # not empty: the batch wrote files there
+            return
 
 
 def _worker_count(requested: int | None, jobs: int) -> int:

@@ -213,13 +213,11 @@ def preview(
     from quadpipe.preview.window import open_window
 
     model: Preview
-    if clip is not None:  # a bad clip is refused before anything looks for a display
+    if clip is not None:  # bad arguments are refused before anything looks for a display
         from quadpipe.preview import load_replay
 
         model, title = load_replay(clip), f"quadpipe preview: {clip}"
-        check_display()
     else:
-        check_display()
         from quadpipe.preview import LivePreview
 
         model = LivePreview(animal, controller, scene, parse_parameters(parameters))
