@@ -14,20 +14,8 @@ callable `f(env) -> array` evaluated for all animals at once: scalars are arrays
 (n,), vectors (n, 3), conditions boolean (n,). Sub-expressions that need nothing from the
 simulation are folded to constants at compile time.
 
-The simulation state reaches an expression through `env`, a mapping of keys to arrays:
-
-- `t`: time since the controller started, in seconds.
-- `point:<role>.<start|end|mid>`: world position of a body point, in metres.
-- `sensor:<name>`: a sensor's value (see the `sensor` element).
-- `phase:<cycle>`: a cycle element's phase, in cycles, in [0, 1).
-- `contact:<leg>`: whether that leg's foot touches something (boolean).
-- `time_in_state:<machine>`: time since that state machine entered its current state, in s.
-- `frame:heading`: rotation matrices (n, 3, 3) from the heading frame to the world.
-
-`Compiled.needs` lists the keys an expression reads, so a runtime computes only those.
-Division by zero gives 0 and `normalize` of a zero vector gives zero: a degenerate pose
-yields no force rather than a NaN (which would make MuJoCo reset silently). A divisor that is
-always zero, and constant parts that overflow, are refused when the expression is checked.
+How the simulation state reaches an expression (`env`), and what degenerate values give, is
+said once, in `quadpipe.quantities.evaluation`.
 
 This module gathers the language's public names; the work is done in
 `nodes.py` (types, `Expr`, env keys), `functions.py` (the function table), `parsing.py`
