@@ -83,7 +83,8 @@ class ClipRenderer:
         self._gl: GLContext | None = open_gl_context(width, height)
         self._mjr = mujoco.MjrContext(self.model, FONT_SCALE)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._mjr)
-        capacity = self.model.ngeom + sum(overlay.starts.shape[1] for overlay in self.overlays)
+        # every geom, every skin (each drawn as one scene geom) and every overlay item
+        capacity = self.model.ngeom + self.model.nskin + sum(overlay.starts.shape[1] for overlay in self.overlays)
         self.scene = mujoco.MjvScene(self.model, maxgeom=capacity)
         self._option = mujoco.MjvOption()
         self._camera = mujoco.MjvCamera()
