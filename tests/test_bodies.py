@@ -65,20 +65,40 @@ def test_every_vertex_is_weighted_to_at_most_four_bones(animal):
     assert (body.weights >= 0).all() and (body.weights[:, 0] > 0).all()
     np.testing.assert_allclose(body.weights.sum(axis=1), 1.0, atol=1e-9)
     assert ((body.joints >= 0) & (body.joints < len(track.roles))).all()
+
+
+LEGS_INSIDE_THE_BARREL = pytest.mark.xfail(
+    strict=True,
+    reason="the thesis rat is too short for its 300 g: its legs lie inside the barrel (docs/bodies.md, Volumes)",
+)
+
+
+@pytest.mark.parametrize(
+    "animal", [pytest.param(a, marks=LEGS_INSIDE_THE_BARREL) if a == "rat" else a for a in ANIMALS]
+)
+def test_every_limb_moves_skin(animal):
+    track = rest_track(animal)
+    body = body_mesh(track)
     used = np.unique(body.joints[body.weights > 0])
     for role in ("pelvis", "head", "lf_elbow", "rh_knee", "tail3", "neck2"):
         assert track.roles.index(role) in used, f"no vertex follows {role}"
 
 
-def test_weights_blend_across_joints():
-    """Skin near a joint follows both bones; skin mid-bone follows mostly its own."""
+def test_skin_blends_at_joints_and_follows_its_own_bone_mid_bone():
     track = rest_track("dog")
     body = body_mesh(track)
     elbow = track.roles.index("lf_elbow")
-    knee_joint = track.rest_start[elbow]
-    near = np.linalg.norm(body.vertices - knee_joint, axis=1) < 0.2 * track.pelvis_height
-    assert (body.weights[near, 1] > 0.1).any(), "no blending at the elbow"
-    assert (body.weights[:, 0] > 0.9).mean() > 0.3, "every vertex is blended: the skin would be mush"
+    start, end = track.rest_start[elbow], track.rest_end[elbow]
+    axis = end - start
+    t = (body.vertices - start) @ axis / (axis @ axis)
+    across = np.linalg.norm(body.vertices - (start + t[:, None] * axis), axis=1)
+    on_leg = across < 0.1 * track.pelvis_height
+    own = np.where(body.joints == elbow, body.weights, 0.0).sum(axis=1)
+    mid_bone = on_leg & (np.abs(t - 0.5) < 0.1)
+    at_joint = on_leg & (np.abs(t) < 0.05)
+    assert mid_bone.sum() > 10 and at_joint.sum() > 10
+    assert (own[mid_bone] > 0.8).all(), "mid-forearm skin does not follow the forearm"
+    assert ((own[at_joint] > 0.1) & (own[at_joint] < 0.9)).mean() > 0.5, "no blending at the elbow"
 
 
 def test_bodies_are_deterministic():

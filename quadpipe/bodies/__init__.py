@@ -36,7 +36,7 @@ GRID_CELLS = 130
 MIN_RADIUS_CELLS = 1.3
 """No sweep is thinner than this many grid cells (ears, tail tips), so the grid sees it."""
 
-BLEND_HP, FALLOFF_HP = 0.015, 0.04
+BLEND_HP, FALLOFF_HP = 0.015, 0.02
 """Smooth-union width and skin-weight falloff, in pelvis heights."""
 
 INFLUENCES = 4

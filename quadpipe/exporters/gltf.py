@@ -5,7 +5,7 @@ a cyclic permutation of the axes (glTF x = left, y = up, z = forward), which kee
 
 Each animal is one skinned mesh at the scene root: its body (`quadpipe.bodies`), each vertex
 weighted to up to four bones through JOINTS_0/WEIGHTS_0, or for `--look bones` all its bone
-shapes merged, each vertex weighted 1.0 to its bone; colours in COLOR_0. A skin whose inverse
+shapes merged, each vertex weighted 1.0 to its bone; colours in COLOR_0. It has a skin whose inverse
 bind matrices are the bones' rest translations, and joint nodes in the 39-bone hierarchy with
 local TRS (named by role; `<animal>_<role>` when a clip holds several animals). One animation,
 `clip`, has a LINEAR translation and rotation channel per joint and per prop, keyed at every
