@@ -7,7 +7,17 @@ from typing import Annotated
 
 import typer
 
-from quadpipe.cli.options import AnimalOpt, ControllerOpt, SceneOpt, SecondsOpt, SetOpt, parse_parameters
+from quadpipe.cli.options import (
+    AnimalOpt,
+    ControllerOpt,
+    Look,
+    LookOpt,
+    SceneOpt,
+    SecondsOpt,
+    SetOpt,
+    look_name,
+    parse_parameters,
+)
 from quadpipe.cli.output import write_gait_files
 
 
@@ -24,6 +34,7 @@ def render(
     width: Annotated[int, typer.Option(help="Frame width in pixels.")] = 640,
     height: Annotated[int, typer.Option(help="Frame height in pixels.")] = 480,
     overlays: Annotated[str, typer.Option(help="Overlays to draw: contacts,trail or none.")] = "contacts,trail",
+    look: LookOpt = Look.body,
 ) -> None:
     """Render a clip headless (MuJoCo's renderer) to MP4, GIF, or a PNG contact sheet.
 
@@ -51,7 +62,9 @@ def render(
     names = [] if overlays == "none" else [name.strip() for name in overlays.split(",") if name.strip()]
     with transaction():
         for output in outputs:
-            render_clip(baked, output, width=width, height=height, overlays=builtin_overlays(baked, names))
+            render_clip(
+                baked, output, width=width, height=height, overlays=builtin_overlays(baked, names), look=look_name(look)
+            )
     for output in outputs:
         typer.echo(f"wrote {output}")
 

@@ -4,9 +4,12 @@ from __future__ import annotations
 
 from enum import Enum
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
+
+if TYPE_CHECKING:
+    from quadpipe.bodies import Look as LookName
 
 
 class OutputFormat(str, Enum):
@@ -17,6 +20,23 @@ class OutputFormat(str, Enum):
 
 
 FormatOpt = Annotated[OutputFormat, typer.Option("--format", help="Output format.")]
+
+
+class Look(str, Enum):
+    """How animals are drawn in glTF, USD and renders (`quadpipe.bodies.LOOKS`)."""
+
+    body = "body"
+    bones = "bones"
+
+
+def look_name(look: Look) -> LookName:
+    """The `quadpipe.bodies.Look` an option value names."""
+    return look.value
+
+
+LookOpt = Annotated[
+    Look, typer.Option("--look", help="Draw each animal's skinned body, or its bone capsules (glTF, USD, renders).")
+]
 
 SourceArg = Annotated[
     str,
