@@ -9,6 +9,7 @@ lowered into the floor, a body sunk or rolled measure what was done to them.
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -417,3 +418,31 @@ def test_the_walks_swing_fold_measures_as_flexion():
         for joint in ("elbow", "carpus") if leg.endswith("f") else ("knee", "hock"):
             swing = posture.legs[leg].joints[joint].swing_max_deg
             assert swing is not None and swing > SWING_FOLD_DEG, (leg, joint, swing)
+
+
+# --------------------------------------------------------------------------- quadpipe analyze
+
+
+def test_analyze_prints_and_writes_the_posture(cli, tmp_path):
+    from quadpipe.exporters.npz import export_npz
+
+    dog = StickDog()
+    dog.contacts = contacts()
+    dog.root[:, 2] -= 0.03 * HP_M
+    dog.turn("lf_elbow", about_y(-20.0), dog.contacts[:, LEGS.index("lf")])
+    path = tmp_path / "stick.npz"
+    export_npz(Clip(FPS, [dog.track()]), path)
+    text = cli("analyze", str(path), "--settle", "0")
+    assert text.returncode == 0, text.stderr
+    assert "Posture (vs the standing pose" in text.stdout
+    assert "elbow 20/20/20" in text.stdout
+    report = tmp_path / "report.json"
+    shown = cli("analyze", str(path), "--settle", "0", "--format", "json", "-o", str(report))
+    assert shown.returncode == 0, shown.stderr
+    printed = json.loads(shown.stdout.split("\nwrote ")[0])
+    assert printed == json.loads(report.read_text())
+    posture = printed["animals"]["stick"]["posture"]
+    assert posture["first_frame"] == 0
+    assert posture["legs"]["lf"]["joints"]["elbow"]["stance_max_deg"] == pytest.approx(20.0)
+    assert posture["trunk"]["pelvis_height_ratio"] == pytest.approx(0.97)
+    assert posture["worst"]["penetration_rest_hp"] == pytest.approx(0.03)

@@ -102,6 +102,7 @@ def _animal_posture(clip: Clip, track: AnimalTrack, settle_natural_times: float)
         name=track.name,
         species=track.species,
         pelvis_height=track.pelvis_height,
+        fps=clip.fps,
         first_frame=first,
         frames=stop - first,
         strides=max(0, len(strides) - 1),

@@ -13,7 +13,7 @@ import json
 from dataclasses import dataclass, field
 from typing import Any
 
-from quadpipe.analysis.report import HILDEBRAND_ORDER
+from quadpipe.anatomy.roles import LEGS
 
 FORE_JOINTS: tuple[str, ...] = ("shoulder", "elbow", "carpus")
 """The fore leg's joints whose flexion is measured, body to foot."""
@@ -147,6 +147,7 @@ class AnimalPosture:
         name: instance name in the clip.
         species: animal config name.
         pelvis_height: HP, metres.
+        fps: the clip's frame rate.
         first_frame: first measured frame (after settling).
         frames: measured frames, from `first_frame`.
         strides: whole strides of the left hind foot inside the measured frames.
@@ -159,6 +160,7 @@ class AnimalPosture:
     name: str
     species: str
     pelvis_height: float
+    fps: float
     first_frame: int
     frames: int
     strides: int
@@ -188,9 +190,10 @@ class AnimalPosture:
             "species": self.species,
             "pelvis_height_m": self.pelvis_height,
             "first_frame": self.first_frame,
+            "first_s": self.first_frame / self.fps,
             "frames_measured": self.frames,
             "strides": self.strides,
-            "legs": {leg: self.legs[leg].to_dict() for leg in HILDEBRAND_ORDER},
+            "legs": {leg: self.legs[leg].to_dict() for leg in LEGS},
             "trunk": vars(self.trunk).copy(),
             "head_tail": vars(self.head_tail).copy(),
             "worst": {
