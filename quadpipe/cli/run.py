@@ -18,6 +18,7 @@ from quadpipe.cli.options import (
     SceneOpt,
     SecondsOpt,
     SetOpt,
+    parameter_places,
     parse_parameters,
 )
 from quadpipe.cli.output import write_gait_files
@@ -98,6 +99,7 @@ def _bake_and_report(
             metrics_path=metrics_path,
             scene=scene,
             parameters=parse_parameters(parameters),
+            places=parameter_places(parameters),
             fps=fps,
         )
         typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
@@ -220,7 +222,7 @@ def preview(
     else:
         from quadpipe.preview import LivePreview
 
-        model = LivePreview(animal, controller, scene, parse_parameters(parameters))
+        model = LivePreview(animal, controller, scene, parse_parameters(parameters), parameter_places(parameters))
         title = f"quadpipe preview: {animal} / {controller} / {scene}"
     check_display()
     open_window(model, title)

@@ -16,6 +16,7 @@ Problems are collected as `Issue`s rather than raised, so that one run reports t
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 from collections.abc import Callable, Iterable, Mapping
 from fnmatch import fnmatchcase
 from pathlib import Path
@@ -344,7 +345,8 @@ def _own_parameters(
                         )
                     )
                     continue
-                entries[name] = _completed(name, entry, inherited.get(name), issues) if entry.tunable else entry
+                completed = _completed(name, entry, inherited.get(name), issues) if entry.tunable else entry
+                entries[name] = replace(completed, replaces=inherited.get(name))
     return entries
 
 
