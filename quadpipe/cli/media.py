@@ -7,7 +7,15 @@ from typing import Annotated
 
 import typer
 
-from quadpipe.cli.options import AnimalOpt, ControllerOpt, SceneOpt, SecondsOpt, SetOpt, parameter_places, parse_parameters
+from quadpipe.cli.options import (
+    AnimalOpt,
+    ControllerOpt,
+    SceneOpt,
+    SecondsOpt,
+    SetOpt,
+    parameter_places,
+    parse_parameters,
+)
 from quadpipe.cli.output import write_gait_files
 
 

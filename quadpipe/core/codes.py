@@ -46,6 +46,8 @@ GROUPS: tuple[CodeGroup, ...] = (
             "duplicate-key": "a key appears twice in one mapping",
             "file-unreadable": "the file cannot be read",
             "file-not-found": "a file named on the command line or in another file (`extends`, a scene's animal) does not exist",
+            "empty-file": "a YAML file (controller, scene, animal, batch plan, role map) holding nothing, or only comments",
+            "is-a-folder": "a folder named where a file is expected (the hint names a file inside it)",
             "unknown-key": "a key that does not exist in that place",
             "missing-key": "a required key is missing",
             "invalid-value": "a value of the wrong shape (text instead of a list, ...)",

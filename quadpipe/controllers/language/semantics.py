@@ -114,9 +114,7 @@ class _Analysis(MachineChecks):
         if changed:
             self.clashing |= {name for name in parameters if typing_.closure({name}) & changed}
 
-    def _report_replaced(
-        self, name: str, old: expressions.Type, new: expressions.Type, first: ParameterTyping
-    ) -> None:
+    def _report_replaced(self, name: str, old: expressions.Type, new: expressions.Type, first: ParameterTyping) -> None:
         entry = self.merged.parameters[name]
         written = entry.first
         what = "tunable" if entry.tunable else "parameter"
