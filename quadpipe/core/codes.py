@@ -127,6 +127,7 @@ GROUPS: tuple[CodeGroup, ...] = (
         "Joint limit tables (`configs/limits/*.tsv`, `.csv`) and the limits they give each role.",
         {
             "empty-table": "a limits table with no rows",
+            "short-row": "a limits table row with fewer cells than the columns its header names",
             "bad-header": "a limits table header missing columns",
             "duplicate-row": "two rows for one bone",
             "unknown-bone": "a limits table row keyed by a name that is no role, bone or group, so it applies to no joint",
