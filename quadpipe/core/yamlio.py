@@ -311,7 +311,7 @@ def _issue_from_pydantic(
             did_you_mean(name, valid) if valid else None,
         )
     if kind == "missing":
-        where = dotted(path[:-1]) or "the top level"
+        where = dotted(path[:-1]) or "the file's top level"
         return Issue("missing-key", f"required key {loc[-1]!r} is missing in {where}", doc.locate(path[:-1]))
     message = plain_message(err)
     return Issue("invalid-value", f"{dotted(path)}: {message}" if path else message, doc.locate(path))
