@@ -12,7 +12,7 @@ carries the thesis's pelvis height and a real body mass:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -22,6 +22,7 @@ from quadpipe.anatomy.skeleton import Skeleton
 from quadpipe.core import configs
 from quadpipe.core.errors import Issue, QuadpipeError
 from quadpipe.core.limits import BODY_MASS_KG, PELVIS_HEIGHT_CM
+from quadpipe.core.textfiles import missing_file
 from quadpipe.core.yamlio import Name, YamlDocument, load_yaml, validate_document
 
 REFERENCE_HP_M = 0.6556
@@ -81,7 +82,7 @@ def load_animal(name_or_path: str | Path) -> Animal:
     from quadpipe.importers import load_limits, load_skeleton
 
     path = configs.find_config("animals", name_or_path)
-    doc = load_yaml(path)
+    doc = load_yaml(path, "animal", AnimalConfig)
     config = validate_document(AnimalConfig, doc)
     PELVIS_HEIGHT_CM.check(config.pelvis_height_cm, "pelvis_height_cm", where=doc.locate(("pelvis_height_cm",)))
     BODY_MASS_KG.check(config.mass_kg, "mass_kg", where=doc.locate(("mass_kg",)))
@@ -115,12 +116,11 @@ def _named_file(doc: YamlDocument, key: str, what: str) -> Path:
     name = str(doc.data[key])
     path = Path(doc.file).parent / name
     if not path.is_file():
-        raise QuadpipeError.single(
-            "file-not-found",
-            f"{key}: {what} file {name!r} does not exist (looked for {str(path)!r})",
-            where=doc.locate((key,)),
-            hint="the path is relative to this animal config's folder",
+        issue = missing_file(
+            path, what, name=name, where=doc.locate((key,)), hint="the path is relative to this animal config's folder"
         )
+        looked = f" (looked for {str(path)!r})" if issue.code == "file-not-found" else ""
+        raise QuadpipeError([replace(issue, message=f"{key}: {issue.message}{looked}")])
     return path
 
 

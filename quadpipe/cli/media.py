@@ -18,6 +18,7 @@ from quadpipe.cli.options import (
     SecondsOpt,
     SetOpt,
     look_name,
+    parameter_places,
     parse_parameters,
 )
 from quadpipe.cli.output import write_gait_files
@@ -59,7 +60,12 @@ def render(
         from quadpipe.sim.simulation import simulate as run_simulation
 
         baked = run_simulation(
-            animal, controller, seconds=seconds, scene=scene, parameters=parse_parameters(parameters)
+            animal,
+            controller,
+            seconds=seconds,
+            scene=scene,
+            parameters=parse_parameters(parameters),
+            places=parameter_places(parameters),
         ).clip
     names = [] if overlays == "none" else [name.strip() for name in overlays.split(",") if name.strip()]
     with transaction():

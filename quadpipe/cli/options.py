@@ -10,6 +10,7 @@ import typer
 
 if TYPE_CHECKING:
     from quadpipe.bodies import Look as LookName
+    from quadpipe.core.errors import Location
 
 
 class OutputFormat(str, Enum):
@@ -93,7 +94,17 @@ def parse_parameters(pairs: list[str] | None) -> dict[str, str]:
         name, sep, value = pair.partition("=")
         if not sep or not name.strip():
             raise QuadpipeError.single(
-                "bad-parameter", f"--set {pair!r} is not NAME=VALUE", hint='e.g. --set "pedal_force=0.2 bw"'
+                "bad-parameter",
+                "a parameter is given as NAME=VALUE",
+                file=f"--set {pair}",
+                hint='e.g. --set "pedal_force=0.2 bw"',
             )
         result[name.strip()] = value.strip()
     return result
+
+
+def parameter_places(pairs: list[str] | None) -> dict[str, Location]:
+    """Where each `--set` value was given, for messages about it: `--set froude=2 m: error ...`."""
+    from quadpipe.core.errors import Location as Given
+
+    return {pair.partition("=")[0].strip(): Given(f"--set {pair}") for pair in pairs or []}

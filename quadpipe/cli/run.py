@@ -21,6 +21,7 @@ from quadpipe.cli.options import (
     SecondsOpt,
     SetOpt,
     look_name,
+    parameter_places,
     parse_parameters,
 )
 from quadpipe.cli.output import write_gait_files
@@ -109,6 +110,7 @@ def _bake_and_report(
             metrics_path=metrics_path,
             scene=scene,
             parameters=parse_parameters(parameters),
+            places=parameter_places(parameters),
             fps=fps,
             look=look,
         )
@@ -232,7 +234,7 @@ def preview(
     else:
         from quadpipe.preview import LivePreview
 
-        model = LivePreview(animal, controller, scene, parse_parameters(parameters))
+        model = LivePreview(animal, controller, scene, parse_parameters(parameters), parameter_places(parameters))
         title = f"quadpipe preview: {animal} / {controller} / {scene}"
     check_display()
     open_window(model, title)

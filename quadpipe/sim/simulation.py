@@ -188,6 +188,7 @@ class Simulation:
         from quadpipe.controllers.runtime.runtime import compile_for
 
         offered = self.setup.goal_parameters | dict(goals or {})
+        places = self.setup.goal_places() | dict(places or {})
         return compile_for(controller, self.placements, parameters, scene_parameters=offered, places=places)
 
     @overload

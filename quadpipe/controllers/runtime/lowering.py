@@ -296,9 +296,17 @@ class _Lowerer:
         if compiled.constant is not None:
             return self.typed_constant(compiled.constant, compiled.type)
         assert compiled.expr is not None, "a compiled value without a constant keeps its expression"
-        return self.expr(compiled.expr)
+        return self.expr(compiled.expr, {})
 
-    def expr(self, expr: Expr) -> int:
+    def expr(self, expr: Expr, lowered: dict[int, int]) -> int:
+        """The register of an expression node; `lowered` holds the nodes of this value already
+        lowered, by `id`: a parameter used twice is one shared node (`p2: p1 + p1`), lowered once
+        rather than once per path through it (2^n times down a chain of n)."""
+        if id(expr) not in lowered:
+            lowered[id(expr)] = self._lower_node(expr, lowered)
+        return lowered[id(expr)]
+
+    def _lower_node(self, expr: Expr, lowered: dict[int, int]) -> int:
         if not expr.needs:
             constant = compile_expr(expr, self.compiled.scale).constant
             assert constant is not None, "an expression that needs nothing compiles to a constant"
@@ -306,7 +314,7 @@ class _Lowerer:
         op = expr.op
         if op == "var":
             return self.variable(str(expr.value))
-        args = [self.expr(arg) for arg in expr.args]
+        args = [self.expr(arg, lowered) for arg in expr.args]
         if op in BINARY_OPS:
             return self.op(BINARY_OPS[op], *args)
         if op in REDUCING_OPS:
