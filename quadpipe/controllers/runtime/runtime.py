@@ -38,17 +38,14 @@ from quadpipe.core.errors import Location
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.world.placement import Placement
 
-WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
-"""Geom groups a ground ray may hit: group 0 only (terrain and props; bones are in
-`quadpipe.animals.model.ANIMAL_GEOM_GROUP`)."""
-
 UP = np.array([0.0, 0.0, 1.0])
 
 _FixedArguments = tuple[
     np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float,
     np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+    int, int,
 ]  # fmt: skip
-"""The first sixteen arguments of `kernel.run` (`code` to `dof_damping`), the same from step to step."""
+"""The first eighteen arguments of `kernel.run` (`code` to `data`), the same from step to step."""
 
 
 @dataclass
@@ -108,13 +105,6 @@ class ControllerRuntime:
         self._fixed_for: mujoco.MjData | None = None
         self._fixed: _FixedArguments  # set with `_fixed_for` by `_arguments`
         self._few_contacts = (np.zeros((1, 4), np.int32)[:, ::2], np.zeros((1, 18))[:, ::2])
-        heights = self.program.heights
-        self._height_registers = [register for register, _ in heights]
-        self._height_bodies = np.array([self._body_of(point) for _, point in heights], dtype=np.int64).reshape(
-            -1, self.n
-        )
-        self._height_offsets = np.array([self._offsets[point] for _, point in heights]).reshape(-1, self.n, 3)
-        self._ray_hit = np.zeros(1, dtype=np.int32)
 
     # ------------------------------------------------------------------ set-up
 
@@ -235,20 +225,6 @@ class ControllerRuntime:
         left = np.cross(UP, forward)
         return np.stack([forward, left, np.broadcast_to(UP, forward.shape)], axis=-1)
 
-    def _heights(self, data: mujoco.MjData) -> None:
-        """Fill the raw value of each `height` sensor: the ground (or a prop) below its point.
-
-        Every sensor's point is placed in one vectorised step, then one ray is cast per point.
-        """
-        bodies = self._height_bodies
-        rotations = data.xmat[bodies].reshape(*bodies.shape, 3, 3)
-        points = data.xpos[bodies] + np.einsum("hnij,hnj->hni", rotations, self._height_offsets)
-        registers, model, hit = self._registers, self.model, self._ray_hit
-        for register, row in zip(self._height_registers, points):
-            for animal, at in enumerate(row):
-                distance = mujoco.mj_ray(model, data, at, -UP, WORLD_GEOM_GROUPS, 1, -1, hit)
-                registers[register, animal] = distance if distance >= 0 else at[2]
-
     # ------------------------------------------------------------------ step
 
     def release(self) -> None:
@@ -266,8 +242,6 @@ class ControllerRuntime:
 
     def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:
         """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
-        if self.program.heights:
-            self._heights(data)
         ncon = data.ncon
         fault = run(*self._arguments(data), 0, last, finish, data.time, ncon, *self._contact_arrays(data, ncon))
         if fault != NO_FAULT and self.fault is None:
@@ -303,7 +277,7 @@ class ControllerRuntime:
             self._fixed = (
                 self.program.code, self._registers, self._integers, self._integer_layout, self._reals, self._real_layout, self.dt,
                 data.xpos, data.xmat, data.xipos, data.cvel, data.subtree_com, data.qpos,
-                data.qfrc_applied, data.xfrc_applied, self.model.dof_damping,
+                data.qfrc_applied, data.xfrc_applied, self.model.dof_damping, self.model._address, data._address,
             )  # fmt: skip
             self._fixed_for = data
         return self._fixed
