@@ -20,7 +20,7 @@ from quadpipe.cli.options import (
     SetOpt,
     parse_parameters,
 )
-from quadpipe.cli.output import write_gait_files
+from quadpipe.cli.output import print_warnings, write_gait_files
 
 if TYPE_CHECKING:
     from quadpipe.preview.base import Preview
@@ -100,6 +100,7 @@ def _bake_and_report(
             parameters=parse_parameters(parameters),
             fps=fps,
         )
+        print_warnings(result.warnings)
         typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
         for name, figures in result.metrics["animals"].items():
             typer.echo(
