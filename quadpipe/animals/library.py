@@ -73,8 +73,9 @@ class GaitUse(BaseModel):
         return self
 
 
-DEFAULT_GAITS: Mapping[str, GaitUse] = {"walk": GaitUse(froude=(0.0, 0.6), sequence=None)}
-"""The repertoire of an animal whose config lists none, or made from bare files: a walk."""
+def default_gaits() -> dict[GaitName, GaitUse]:
+    """The repertoire of an animal whose config lists none, or made from bare files: a walk."""
+    return {"walk": GaitUse(froude=(0.0, 0.6), sequence=None)}
 
 
 class AnimalConfig(BaseModel):
@@ -90,7 +91,7 @@ class AnimalConfig(BaseModel):
     mass_kg: float = Field(description="Real adult body mass in kilograms; the model weighs this.")
     description: str = Field("", description="One line for `quadpipe animals`.")
     gaits: dict[GaitName, GaitUse] = Field(
-        default_factory=lambda: {"walk": DEFAULT_GAITS["walk"]},
+        default_factory=default_gaits,
         description="The species' gaits and the Froude numbers it uses them at (default: a walk).",
     )
 
@@ -118,7 +119,7 @@ class Animal:
     mass_kg: float
     source: str
     warnings: tuple[Issue, ...] = ()
-    gaits: Mapping[str, GaitUse] = field(default_factory=lambda: dict(DEFAULT_GAITS))
+    gaits: Mapping[GaitName, GaitUse] = field(default_factory=default_gaits)
     gaits_at: Location | None = None
 
 
@@ -154,7 +155,7 @@ def load_animal(name_or_path: str | Path) -> Animal:
                 severity="warning",
             )
         )
-    gaits: dict[str, GaitUse] = {name: config.gaits[name] for name in GAIT_NAMES if name in config.gaits}
+    gaits = {name: config.gaits[name] for name in get_args(GaitName) if name in config.gaits}
     return Animal(
         config.name, skeleton, limits, hp, config.mass_kg, str(path), tuple(warnings), gaits, doc.locate(("gaits",))
     )
