@@ -107,7 +107,10 @@ def test_a_controller_that_declares_no_repertoire_parameter_takes_none():
 def pair_scene(folder: Path, species: tuple[str, str]) -> Path:
     """Two animals of the given species side by side."""
     path = folder / "pair.yaml"
-    animals = [{"name": "a", "species": species[0], "at": [0, 0]}, {"name": "b", "species": species[1], "at": [0, "4 HP"]}]
+    animals = [
+        {"name": "a", "species": species[0], "at": [0, 0]},
+        {"name": "b", "species": species[1], "at": [0, "4 HP"]},
+    ]
     path.write_text(yaml.safe_dump({"schema": 1, "name": "pair", "animals": animals}, sort_keys=False))
     return path
 
@@ -121,7 +124,9 @@ def test_species_that_gallop_differently_cannot_share_one_gallop(tmp_path):
     assert issue.code == "mixed-repertoires" and "gallop_rotary" in issue.message
     assert issue.where is not None and issue.where.file.endswith("horse.yaml")
     # set for both, it runs; and species that agree need nothing set
-    Simulation.build("dog", "gallop", scene=str(pair_scene(tmp_path, ("dog", "horse"))), parameters={"gallop_rotary": "1"})
+    Simulation.build(
+        "dog", "gallop", scene=str(pair_scene(tmp_path, ("dog", "horse"))), parameters={"gallop_rotary": "1"}
+    )
     Simulation.build("dog", "gallop", scene=str(pair_scene(tmp_path, ("dog", "lion"))))
 
 
@@ -137,7 +142,9 @@ def test_a_gait_the_species_does_not_use_runs_with_one_warning():
     assert result.clip.frame_count > 1  # it ran
 
 
-@pytest.mark.parametrize(("animal", "controller"), [("elephant", "amble"), ("dog", "gallop"), ("elephant", "auto_gait")])
+@pytest.mark.parametrize(
+    ("animal", "controller"), [("elephant", "amble"), ("dog", "gallop"), ("elephant", "auto_gait")]
+)
 def test_a_gait_of_the_repertoire_or_a_controller_that_is_no_gait_does_not_warn(animal, controller):
     from quadpipe.sim.simulation import simulate
 
