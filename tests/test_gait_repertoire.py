@@ -165,6 +165,7 @@ def test_the_command_line_prints_the_warning_once_on_stderr(tmp_path):
     ("gaits", "message"),
     [
         ("{walk: {froude: [0.5, 0.2]}}", "not a range"),
+        ("{walk: {froude: [0, .inf]}}", "not a range of finite"),
         ("{walk: {froude: [0, 0.5]}, trott: {froude: [0.4, 2]}}", "trott"),
     ],
 )

@@ -20,6 +20,7 @@ The repertoire reaches the controllers as parameters they may declare (see
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -68,8 +69,8 @@ class GaitUse(BaseModel):
     @model_validator(mode="after")
     def _ordered(self) -> GaitUse:
         low, high = self.froude
-        if not 0 <= low < high:
-            raise ValueError(f"froude: [{low}, {high}] is not a range of Froude numbers from low to high")
+        if not 0 <= low < high < math.inf:
+            raise ValueError(f"froude: [{low}, {high}] is not a range of finite Froude numbers from low to high")
         return self
 
 
