@@ -24,7 +24,7 @@ from quadpipe.cli.options import (
     parameter_places,
     parse_parameters,
 )
-from quadpipe.cli.output import write_gait_files
+from quadpipe.cli.output import print_warnings, write_gait_files
 
 if TYPE_CHECKING:
     from quadpipe.bodies import Look as LookName
@@ -114,6 +114,7 @@ def _bake_and_report(
             fps=fps,
             look=look,
         )
+        print_warnings(result.warnings)
         typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
         for name, figures in result.metrics["animals"].items():
             typer.echo(

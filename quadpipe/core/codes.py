@@ -141,6 +141,8 @@ GROUPS: tuple[CodeGroup, ...] = (
         "Animal configs (`configs/animals/*.yaml`): a skeleton, limits and sizes.",
         {
             "hp-mismatch": "(warning) the skeleton's pelvis height differs from the config's",
+            "gait-not-in-repertoire": "(warning) a gait controller run on an animal whose species does not use that gait",
+            "mixed-repertoires": "the animals of one run offer different gait settings to their one controller",
         },
     ),
     CodeGroup(

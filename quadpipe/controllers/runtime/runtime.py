@@ -30,11 +30,12 @@ import mujoco
 import numpy as np
 
 from quadpipe.anatomy.roles import FOOT_BONES, LEGS, ROLES
+from quadpipe.animals.library import repertoire_parameters
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.runtime.kernel import HEADING_MIN_NORM, INTEGER_ARRAYS, NO_FAULT, REAL_ARRAYS, pack, run
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
-from quadpipe.core.errors import Location
+from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.world.placement import Placement
 
@@ -398,17 +399,52 @@ def compile_for(
             declares are used, and `parameters` win over them.
         places: where each of `parameters` was written (a batch plan's line), for messages.
 
+    The animals' species offer their gait repertoire the same way (`repertoire_parameters`:
+    the Froude numbers of their gaits, the gallop's sequence), under the scene's values.
+
     Returns:
         the compiled controller (bind it with `ControllerRuntime`), and the files it was read
         from (the requested one first), for a caller that watches them.
 
     Raises:
-        QuadpipeError: the files do not validate, or an override does not fit them.
+        QuadpipeError: the files do not validate, or an override does not fit them;
+            `mixed-repertoires` when the animals' species offer different values of a
+            parameter the controller declares and the caller does not set.
     """
     spec = load_controller(controller)
-    offered = {name: value for name, value in (scene_parameters or {}).items() if name in spec.parameters}
-    overrides = offered | dict(parameters or {})
+    given = dict(parameters or {})
+    species, species_places = _species_offers(placements, set(spec.parameters) - set(given))
+    offered = species | {name: value for name, value in (scene_parameters or {}).items() if name in spec.parameters}
+    overrides = offered | given
     if overrides:
-        spec = load_controller(controller, parameters=overrides, places=places)
+        where = {**species_places, **(places or {})} or None
+        spec = load_controller(controller, parameters=overrides, places=where)
     scale = scale_for_animals([p.built.animal for p in placements])
     return compile_controller(spec, scale), spec.sources
+
+
+def _species_offers(placements: Sequence[Placement], declared: set[str]) -> tuple[dict[str, str], dict[str, Location]]:
+    """The repertoire parameters the animals' species offer among `declared`, and where each
+    was written (the animal config's `gaits:`).
+
+    Raises:
+        QuadpipeError: `mixed-repertoires` when two species offer different values of one.
+    """
+    values: dict[str, str] = {}
+    places: dict[str, Location] = {}
+    for placement in placements:
+        animal = placement.built.animal
+        for name, value in repertoire_parameters(animal).items():
+            if name not in declared:
+                continue
+            if values.setdefault(name, value) != value:
+                raise QuadpipeError.single(
+                    "mixed-repertoires",
+                    f"the animals' species set {name} to {values[name]} and {value} ({animal.name}); "
+                    "one controller runs them all",
+                    where=animal.gaits_at,
+                    hint=f"set it for all of them (--set {name}=VALUE), or run each species in its own scene",
+                )
+            if animal.gaits_at is not None:
+                places[name] = animal.gaits_at
+    return values, places
