@@ -15,8 +15,10 @@ endTimeCode the last frame: one time code per frame. The default prim `/World` h
   under their skeleton are what Blender parents to the armature it makes of the skeleton,
   named after the animal;
 - `props/<name>`: a `Mesh` named as in the scene, moved by time-sampled translate and orient
-  ops, its `visibility` `invisible` while it is out of the scene (a thrown box before its
-  throw), when it holds still (`quadpipe.exporters.presence`);
+  ops; while it is out of the scene (a thrown box before its throw) it holds still
+  (`quadpipe.exporters.presence`), its `visibility` is `invisible` and, for importers that
+  read no visibility (Blender), a scale op is 0, stepping to 1 between the frame before it
+  enters and the frame it does;
 - `terrain`: the static world shapes as one mesh;
 - `looks/<mesh>`: a `UsdPreviewSurface` material for each mesh, bound with
   `MaterialBindingAPI` (its colour, or its vertex colours through a primvar reader).
@@ -54,6 +56,11 @@ ANIMALS, PROPS, TERRAIN, LOOKS = (f"{WORLD}/{name}" for name in ("animals", "pro
 BODY_SUFFIX = "_body"
 """An animal's body mesh is named after it with this suffix (`dog_body`)."""
 
+FPS_PROPERTY = "userProperties:quadpipe:fps"
+"""The clip's frame rate again, on `/World`, for importers that read no stage frame rate
+(Blender's makes it the `quadpipe:fps` custom property of the World object, which the script
+of `quadpipe blender-script` reads)."""
+
 ROUGHNESS = 0.8
 """Every material is matte and not metallic (as glTF's)."""
 
@@ -64,7 +71,7 @@ same clip gives the same bytes."""
 
 def build_stage(clip: Clip) -> Usd.Stage:
     """An in-memory stage holding the clip."""
-    from pxr import Usd, UsdGeom, UsdSkel
+    from pxr import Sdf, Usd, UsdGeom, UsdSkel
 
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
@@ -77,6 +84,7 @@ def build_stage(clip: Clip) -> Usd.Stage:
     layer.customLayerData = {"quadpipe": {"version": __version__, **clip.metadata}}
     world = UsdGeom.Xform.Define(stage, WORLD)
     stage.SetDefaultPrim(world.GetPrim())
+    world.GetPrim().CreateAttribute(FPS_PROPERTY, Sdf.ValueTypeNames.Double, custom=True).Set(float(clip.fps))
     UsdGeom.Scope.Define(stage, LOOKS)
     names = _UniqueNames()
     if clip.animals:
@@ -263,8 +271,23 @@ def _add_prop(stage: Usd.Stage, path: str, prop: PropTrack) -> None:
     frames, present = switches(prop)
     if len(frames) > 1 or not present[0]:
         visibility = mesh.CreateVisibilityAttr()
+        scale = mesh.AddScaleOp(UsdGeom.XformOp.PrecisionFloat)
         for frame, shown in zip(frames, present):
             visibility.Set(UsdGeom.Tokens.inherited if shown else UsdGeom.Tokens.invisible, int(frame))
+        for frame, shown in _stepped(frames, present):
+            scale.Set(Gf.Vec3f(float(shown)), frame)
+
+
+def _stepped(frames: np.ndarray, values: np.ndarray) -> list[tuple[int, bool]]:
+    """Time samples of a step function set to `values` at `frames`: a sample at each switch
+    and one repeating the old value the frame before, so that linear interpolation changes it
+    only between those two frames."""
+    samples: list[tuple[int, bool]] = []
+    for frame, value in zip(frames.tolist(), values.tolist()):
+        if samples and samples[-1][0] < frame - 1:
+            samples.append((frame - 1, samples[-1][1]))
+        samples.append((frame, value))
+    return samples
 
 
 def _export_layer(stage: Usd.Stage, target: Path) -> None:
