@@ -6,7 +6,8 @@ imports each clip into a fresh empty scene with the shipped script (`quadpipe_im
 SCRIPT_FOLDER) and writes what Blender made of it as JSON: the scene's frame rate and range,
 every armature (its parent and its bones' world head positions at FRAMES, comma-separated),
 every mesh (its parent, its armature, how many of its vertices carry weight), and every other
-object's parent chain and lowest world height over the frame range.
+mesh's parent chain, the frames it is shown on (not hidden, not scaled to 0) and its lowest
+world height over those.
 """
 
 from __future__ import annotations
@@ -61,18 +62,19 @@ def _report(frames: list[int]) -> dict:
             armature = bpy.data.objects[name]
             entry["heads"][frame] = {bone.name: list(armature.matrix_world @ bone.head) for bone in armature.pose.bones}
     lowest: dict[str, float] = {}
-    scales: dict[str, list[float]] = {}
+    shown: dict[str, list[float]] = {}
     for frame in range(scene.frame_start, scene.frame_end + 1):
         scene.frame_set(frame)
         for obj in bpy.data.objects:
             if obj.type == "MESH" and not report["meshes"][obj.name]["armature"]:
-                z = obj.matrix_world.translation.z
-                lowest[obj.name] = min(lowest.get(obj.name, z), z)
                 visible = not obj.hide_viewport and obj.matrix_world.to_scale().length > 0
-                scales.setdefault(obj.name, []).append(1.0 if visible else 0.0)
-    for name in lowest:
-        report["meshes"][name]["lowest_z"] = lowest[name]
-        report["meshes"][name]["shown"] = scales[name]
+                shown.setdefault(obj.name, []).append(1.0 if visible else 0.0)
+                if visible:
+                    z = obj.matrix_world.translation.z
+                    lowest[obj.name] = min(lowest.get(obj.name, z), z)
+    for name, frames_shown in shown.items():
+        report["meshes"][name]["shown"] = frames_shown
+        report["meshes"][name]["lowest_z"] = lowest.get(name)
     return report
 
 

@@ -80,8 +80,11 @@ def import_clip(path: str | Path) -> list[bpy.types.Object]:
         fps, frames = bvh_timing(path)
         set_scene_time(scene, fps, frames)
         bpy.ops.import_anim.bvh(
-            filepath=str(path), global_scale=BVH_SCALE, frame_start=0, use_fps_scale=False, update_scene_fps=False
+            filepath=str(path), global_scale=BVH_SCALE, frame_start=1, use_fps_scale=False, update_scene_fps=False
         )
+        created = [obj for obj in bpy.data.objects if obj not in before]
+        shift_keys(created, -1)  # Blender's BVH importer starts at frame 1 at the earliest
+        return created
     else:
         raise ValueError(f"{path.name}: not a clip this script imports ({', '.join(SUFFIXES)})")
     return [obj for obj in bpy.data.objects if obj not in before]
@@ -101,6 +104,26 @@ def set_scene_time(scene: bpy.types.Scene, fps: float | None, frames: int | None
         scene.frame_start = 0
         scene.frame_end = max(frames - 1, 0)
         scene.frame_set(0)
+
+
+def shift_keys(objects: list[bpy.types.Object], frames: float) -> None:
+    """Move every key of the objects' actions by `frames`."""
+    for obj in objects:
+        action = obj.animation_data.action if obj.animation_data else None
+        for curve in _fcurves(action) if action else []:
+            for key in curve.keyframe_points:
+                for point in (key.co, key.handle_left, key.handle_right):
+                    point.x += frames
+            curve.update()
+
+
+def _fcurves(action: bpy.types.Action) -> list[bpy.types.FCurve]:
+    """An action's F-curves, in layered actions (Blender 4.4 and later) or older ones."""
+    if not hasattr(action, "layers"):
+        return list(action.fcurves)
+    return [
+        curve for layer in action.layers for strip in layer.strips for bag in strip.channelbags for curve in bag.fcurves
+    ]
 
 
 def gltf_document(path: Path) -> dict:
