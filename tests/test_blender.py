@@ -152,6 +152,14 @@ def test_props_and_terrain_stand_apart_from_the_armatures_and_show_only_in_the_s
         assert "ARMATURE" not in entry["parents"], f"{mesh} is under an armature"
 
 
+def test_the_throws_clip_has_a_box_entering_the_scene(clips):
+    """The recording marks a thrown box absent until its throw, so the checks above see one enter."""
+    presence = {prop.name: prop.presence() for prop in clips["throws"].props}
+    assert presence["ball"].all()
+    assert not presence["thrown0"][0] and presence["thrown0"][-1]
+    assert not presence["thrown1"].any()
+
+
 def blender_frame(points: np.ndarray, suffix: str) -> np.ndarray:
     """quadpipe points as Blender places them: USD as they are (z up), glTF and BVH converted
     from their y-up frame by Blender's importers ((x, y, z) -> (x, -z, y))."""
