@@ -115,6 +115,37 @@ def test_the_script_runs_from_the_command_line(files, tmp_path):
     assert "at 30 fps, frames 0-60" in result.stdout
 
 
+MENU_CHECK = """
+import json, sys
+import bpy
+import quadpipe_import
+quadpipe_import.register()
+entries = [draw.__name__ for draw in bpy.types.TOPBAR_MT_file_import._dyn_ui_initialize()]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.quadpipe.import_clip(filepath=sys.argv[1])
+scene = bpy.context.scene
+print(json.dumps([entries, scene.render.fps / scene.render.fps_base, scene.frame_start, scene.frame_end]))
+"""
+"""Run in Blender: register the script as Text Editor's Run Script does, then use its File > Import entry."""
+
+
+def test_the_import_menu_entry_imports_a_clip(clips, files, tmp_path):
+    if not BLENDER_PYTHON.exists():
+        pytest.fail(f"Blender's Python ({BLENDER_PYTHON}) is missing: run scripts/install.sh")
+    (tmp_path / "quadpipe_import.py").write_text(blender_script(), encoding="utf-8")
+    result = subprocess.run(
+        [str(BLENDER_PYTHON), "-c", MENU_CHECK, str(files["crowd", ".usdc"])],
+        capture_output=True,
+        text=True,
+        timeout=BLENDER_TIMEOUT_S,
+        cwd=tmp_path,
+    )
+    assert result.returncode == 0, result.stderr[-4000:]
+    entries, fps, start, end = json.loads(result.stdout.strip().splitlines()[-1])
+    assert "_menu_entry" in entries
+    assert (fps, start, end) == (clips["crowd"].fps, 0, clips["crowd"].frame_count - 1)
+
+
 @pytest.mark.parametrize(("name", "suffix"), FILES)
 def test_the_scene_takes_the_clips_fps_and_frame_range(clips, reports, name, suffix):
     report, clip = reports[name, suffix], clips[name]
