@@ -14,7 +14,7 @@ merged, each vertex weighted 1.0 to its bone; colours in COLOR_0. Its skin's inv
 matrices are the bones' rest translations. One animation, `clip`, has a LINEAR translation and
 rotation channel per joint and per prop, keyed at every frame; a prop absent from some frames
 (a thrown box before its throw) also has a STEP scale channel, 0 while absent, and holds still
-then (`quadpipe.exporters.presence`). Rotations stay in one hemisphere frame to frame, so no
+then (`quadpipe.exporters.layout`). Rotations stay in one hemisphere frame to frame, so no
 interpolation swings the long way round. The file is written with numpy, json and struct only,
 byte-identical for the same clip.
 """
@@ -33,7 +33,7 @@ from quadpipe.clip.meshes import TriangleMesh, merge, shape_mesh, shapes_mesh
 from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
 from quadpipe.core.atomic import transaction, write_bytes
 from quadpipe.core.version import __version__
-from quadpipe.exporters.presence import held_poses, switches
+from quadpipe.exporters.layout import BODY_SUFFIX, held_poses, switches
 
 GLB_MAGIC = 0x46546C67
 GLB_VERSION = 2
@@ -55,9 +55,6 @@ MATERIAL = {
 """The one material: white, matte; shapes' colours come from the COLOR_0 vertex colours."""
 
 ANIMATION_NAME = "clip"
-
-BODY_SUFFIX = "_body"
-"""An animal's skinned mesh node is named after it with this suffix (`dog_body`)."""
 
 
 class _Document:

@@ -16,7 +16,7 @@ endTimeCode the last frame: one time code per frame. The default prim `/World` h
   named after the animal;
 - `props/<name>`: a `Mesh` named as in the scene, moved by time-sampled translate and orient
   ops; while it is out of the scene (a thrown box before its throw) it holds still
-  (`quadpipe.exporters.presence`), its `visibility` is `invisible` and, for importers that
+  (`quadpipe.exporters.layout`), its `visibility` is `invisible` and, for importers that
   read no visibility (Blender), a scale op is 0, stepping to 1 between the frame before it
   enters and the frame it does;
 - `terrain`: the static world shapes as one mesh;
@@ -42,7 +42,7 @@ from quadpipe.clip.model import AnimalTrack, BodyMesh, Clip, PropTrack
 from quadpipe.core.atomic import atomic_path, scratch_path
 from quadpipe.core.signals import signals_deferred
 from quadpipe.core.version import __version__
-from quadpipe.exporters.presence import held_poses, switches
+from quadpipe.exporters.layout import BODY_SUFFIX, held_poses, switches
 
 if TYPE_CHECKING:
     from pxr import Usd, UsdGeom, UsdSkel, Vt
@@ -53,8 +53,6 @@ WORLD = "/World"
 ANIMALS, PROPS, TERRAIN, LOOKS = (f"{WORLD}/{name}" for name in ("animals", "props", "terrain", "looks"))
 """The SkelRoot of the animals, the scope of the props, the terrain mesh, the materials' scope."""
 
-BODY_SUFFIX = "_body"
-"""An animal's body mesh is named after it with this suffix (`dog_body`)."""
 
 FPS_PROPERTY = "userProperties:quadpipe:fps"
 """The clip's frame rate again, on `/World`, for importers that read no stage frame rate

@@ -1,6 +1,8 @@
-"""When props are in the scene, as the mesh formats show it.
+"""What the mesh formats (glTF, USD) lay out alike: the names of animals' meshes, and when
+props are in the scene.
 
-A prop may be out of the scene for some frames (a thrown box waits, parked far under the floor,
+An animal's mesh is named after it with `BODY_SUFFIX` (`dog_body`), beside the armature or
+skeleton that bears the animal's own name. A prop may be out of the scene for some frames (a thrown box waits, parked far under the floor,
 until its throw): its pose there means nothing. The exporters draw it only while it is present
 (glTF: scale 0 keys with STEP interpolation; USD: `visibility` samples) and hold it, while it is
 absent, at the pose of its nearest present frame, so that no interpolation between keys ever
@@ -12,6 +14,9 @@ from __future__ import annotations
 import numpy as np
 
 from quadpipe.clip.model import PropTrack
+
+BODY_SUFFIX = "_body"
+"""An animal's skinned mesh is named after it with this suffix (`dog_body`)."""
 
 
 def held_poses(prop: PropTrack) -> tuple[np.ndarray, np.ndarray]:
