@@ -172,7 +172,9 @@ def test_props_and_terrain_stand_apart_from_the_armatures_and_show_only_in_the_s
     report, clip = reports[name, suffix], clips[name]
     hp = min(track.pelvis_height for track in clip.animals)
     loose = {mesh: entry for mesh, entry in report["meshes"].items() if not entry["armature"]}
-    assert "terrain" in loose
+    assert sorted(loose) == sorted([prop.name for prop in clip.props] + ["terrain"]), (
+        "meshes other than props and terrain"
+    )
     for prop in clip.props:
         entry = loose[prop.name]
         assert "ARMATURE" not in entry["parents"], f"{prop.name} is under an armature"

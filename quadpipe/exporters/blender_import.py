@@ -70,7 +70,7 @@ def import_clip(path: str | Path) -> list[bpy.types.Object]:
     if suffix in GLTF_SUFFIXES:
         fps, frames = gltf_timing(path)
         set_scene_time(scene, fps, frames)
-        bpy.ops.import_scene.gltf(filepath=str(path))
+        bpy.ops.import_scene.gltf(filepath=str(path), disable_bone_shape=True)  # no stray Icosphere object
     elif suffix in USD_SUFFIXES:
         bpy.ops.wm.usd_import(filepath=str(path), set_frame_range=True)
         fps = usd_fps()
