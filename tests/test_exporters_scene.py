@@ -137,3 +137,28 @@ def test_khronos_validator_passes_a_late_prop(late):
 
 def test_usd_validation_passes_a_late_prop(late):
     assert usd_errors(late[1][".usda"]) == []
+
+
+# --------------------------------------------------------------------------- every shipped scene
+
+SCENE_CLIP_SECONDS = 0.5
+
+
+def _shipped_scenes() -> list[str]:
+    from quadpipe.core import configs
+
+    return list(configs.available("scenes"))
+
+
+@pytest.mark.slow
+@needs_node
+@pytest.mark.parametrize("scene", _shipped_scenes())
+def test_every_shipped_scene_bakes_valid_gltf_and_usd(scene, tmp_path):
+    """Terrain, props and crowds of every scene: the Khronos validator and UsdValidation pass."""
+    from quadpipe.sim.simulation import simulate
+
+    clip = simulate("dog", "spine_walk", seconds=SCENE_CLIP_SECONDS, scene=scene).clip
+    glb = export_clip(clip, tmp_path / "scene.glb")
+    issues = run_node("validate_gltf.mjs", str(glb))["issues"]
+    assert (issues["numErrors"], issues["numWarnings"]) == (0, 0), json.dumps(issues["messages"], indent=1)
+    assert usd_errors(export_clip(clip, tmp_path / "scene.usdc")) == []
