@@ -149,7 +149,7 @@ def test_the_import_menu_entry_imports_a_clip(clips, files, tmp_path):
 @pytest.mark.parametrize(("name", "suffix"), FILES)
 def test_the_scene_takes_the_clips_fps_and_frame_range(clips, reports, name, suffix):
     report, clip = reports[name, suffix], clips[name]
-    assert report["fps"] == pytest.approx(clip.fps, rel=1e-6)
+    assert report["fps"] == pytest.approx(clip.fps, rel=1e-9)
     assert (report["frame_start"], report["frame_end"]) == (0, clip.frame_count - 1)
 
 

@@ -50,6 +50,10 @@ USD_FPS_PROPERTY = "quadpipe:fps"
 BVH_SCALE = 0.01
 """quadpipe's BVH lengths are centimetres; Blender works in metres."""
 
+BVH_FPS_DECIMALS = 3
+"""A BVH `Frame Time` has a few decimals (0.03333333): the rate it gives is rounded to a
+thousandth of a frame per second (30, not 30.0000036)."""
+
 GLB_HEADER = struct.Struct("<III")
 """A .glb file's header (magic, version, length), followed by its JSON chunk."""
 GLB_CHUNK = struct.Struct("<II")
@@ -162,11 +166,12 @@ def usd_fps() -> float | None:
 
 
 def bvh_timing(path: Path) -> tuple[float | None, int | None]:
-    """A BVH file's frame rate (1 / `Frame Time`) and frame count (`Frames`)."""
+    """A BVH file's frame rate (1 / `Frame Time`, rounded) and frame count (`Frames`)."""
     text = path.read_text(encoding="utf-8", errors="replace")
     frames = re.search(r"^\s*Frames:\s*(\d+)", text, re.MULTILINE)
     frame_time = re.search(r"^\s*Frame Time:\s*([0-9.eE+-]+)", text, re.MULTILINE)
-    fps = 1.0 / float(frame_time.group(1)) if frame_time and float(frame_time.group(1)) > 0 else None
+    seconds = float(frame_time.group(1)) if frame_time else 0.0
+    fps = round(1.0 / seconds, BVH_FPS_DECIMALS) if seconds > 0 else None
     return fps, int(frames.group(1)) if frames else None
 
 
