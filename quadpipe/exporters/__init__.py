@@ -8,6 +8,9 @@ used. To add a format, write a module and add an entry to `CLIP_FORMATS`.
 
 Every write is atomic (`quadpipe.core.atomic`): a failed export never leaves a partial file
 behind, nor a `.gltf` without its `.bin`.
+
+`blender_script()` is the source of `blender_import.py`, the script that imports clips into
+Blender at their frame rate and range (`quadpipe blender-script`; docs/dcc.md).
 """
 
 from __future__ import annotations
