@@ -42,6 +42,7 @@ bl_info = {
 GLTF_SUFFIXES = (".glb", ".gltf")
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 BVH_SUFFIXES = (".bvh",)
+SUFFIXES = GLTF_SUFFIXES + USD_SUFFIXES + BVH_SUFFIXES
 
 USD_FPS_PROPERTY = "quadpipe:fps"
 """The custom property Blender's USD importer gives `/World`'s object from quadpipe's
@@ -72,29 +73,28 @@ def import_clip(path: str | Path) -> list[bpy.types.Object]:
     before = set(bpy.data.objects)
     scene = bpy.context.scene
     if suffix in GLTF_SUFFIXES:
-        fps, frames = gltf_timing(path)
-        set_scene_time(scene, fps, frames)
+        set_scene_time(scene, *gltf_timing(path))
         bpy.ops.import_scene.gltf(filepath=str(path), disable_bone_shape=True)  # no stray Icosphere object
-    elif suffix in USD_SUFFIXES:
+        return _created(before)
+    if suffix in USD_SUFFIXES:
         bpy.ops.wm.usd_import(filepath=str(path), set_frame_range=True)
-        fps = usd_fps()
-        if fps is not None:
-            set_scene_time(scene, fps, None)
-    elif suffix in BVH_SUFFIXES:
-        fps, frames = bvh_timing(path)
-        set_scene_time(scene, fps, frames)
+        created = _created(before)
+        set_scene_time(scene, usd_fps(created), None)
+        return created
+    if suffix in BVH_SUFFIXES:
+        set_scene_time(scene, *bvh_timing(path))
         bpy.ops.import_anim.bvh(
             filepath=str(path), global_scale=BVH_SCALE, frame_start=1, use_fps_scale=False, update_scene_fps=False
         )
-        created = [obj for obj in bpy.data.objects if obj not in before]
+        created = _created(before)
         shift_keys(created, -1)  # Blender's BVH importer starts at frame 1 at the earliest
         return created
-    else:
-        raise ValueError(f"{path.name}: not a clip this script imports ({', '.join(SUFFIXES)})")
+    raise ValueError(f"{path.name}: not a clip this script imports ({', '.join(SUFFIXES)})")
+
+
+def _created(before: set[bpy.types.Object]) -> list[bpy.types.Object]:
+    """The objects that are not in `before`."""
     return [obj for obj in bpy.data.objects if obj not in before]
-
-
-SUFFIXES = GLTF_SUFFIXES + USD_SUFFIXES + BVH_SUFFIXES
 
 
 def set_scene_time(scene: bpy.types.Scene, fps: float | None, frames: int | None) -> None:
@@ -157,9 +157,10 @@ def gltf_timing(path: Path) -> tuple[float | None, int | None]:
     return float(fps), round(max(ends) * float(fps)) + 1
 
 
-def usd_fps() -> float | None:
-    """The frame rate quadpipe wrote on the USD stage's `/World` (None: not a quadpipe file)."""
-    for obj in bpy.data.objects:
+def usd_fps(objects: list[bpy.types.Object]) -> float | None:
+    """The frame rate quadpipe wrote on a USD stage's `/World`, which Blender's importer made one
+    of `objects` (None: not a quadpipe file)."""
+    for obj in objects:
         if USD_FPS_PROPERTY in obj:
             return float(obj[USD_FPS_PROPERTY])
     return None
