@@ -3,7 +3,7 @@
 Blender runs as `bpy` from PyPI in its own environment, `.venv-blender` (Python 3.11, installed
 by scripts/install_blender.sh, which scripts/install.sh calls). Three short clips are baked once
 (a dog walking, the crowd scene's ten dogs, the throws scene until its first box has flown),
-written as .glb and .usdc (and .bvh for the walk), written out by `quadpipe blender-script` and
+written as .glb and .usdc (and .gltf and .bvh for the walk, .usdz for the throws), written out by `quadpipe blender-script` and
 imported, each into a fresh scene, by one Blender process (tests/blender_report.py), which
 reports what Blender made of them.
 """
@@ -32,7 +32,9 @@ CLIPS = {
 }
 """Name -> (animal, controller, seconds, scene). The throws clip ends after its first throw (3 s)."""
 
-FORMATS = {"walk": (".glb", ".usdc", ".bvh"), "crowd": (".glb", ".usdc"), "throws": (".glb", ".usdc")}
+FORMATS = {"walk": (".glb", ".gltf", ".usdc", ".bvh"), "crowd": (".glb", ".usdc"), "throws": (".glb", ".usdc", ".usdz")}
+USD_SUFFIXES = (".usdc", ".usdz")
+GLTF_SUFFIXES = (".glb", ".gltf")
 FILES = [(name, suffix) for name, suffixes in FORMATS.items() for suffix in suffixes]
 
 HEAD_TOLERANCE_HP = 1e-4
@@ -196,7 +198,7 @@ def test_the_throws_clip_has_a_box_entering_the_scene(clips):
 def blender_frame(points: np.ndarray, suffix: str) -> np.ndarray:
     """quadpipe points as Blender places them: USD as they are (z up), glTF and BVH converted
     from their y-up frame by Blender's importers ((x, y, z) -> (x, -z, y))."""
-    if suffix in (".usdc",):
+    if suffix in USD_SUFFIXES:
         return points
     y_up = to_y_up(points)
     return np.stack([y_up[..., 0], -y_up[..., 2], y_up[..., 1]], axis=-1)
@@ -204,7 +206,7 @@ def blender_frame(points: np.ndarray, suffix: str) -> np.ndarray:
 
 def bone_name(clip, track, role: str, suffix: str) -> str:
     """The Blender bone of a role: glTF names joints `<animal>_<role>` when a clip holds several animals."""
-    return f"{track.name}_{role}" if suffix == ".glb" and len(clip.animals) > 1 else role
+    return f"{track.name}_{role}" if suffix in GLTF_SUFFIXES and len(clip.animals) > 1 else role
 
 
 @pytest.mark.parametrize(("name", "suffix"), FILES)
