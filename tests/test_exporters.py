@@ -483,7 +483,9 @@ def test_usd_stage_metadata(clip, written, suffix):
     assert stage.GetTimeCodesPerSecond() == stage.GetFramesPerSecond() == clip.fps
     assert (stage.GetStartTimeCode(), stage.GetEndTimeCode()) == (0, clip.frame_count - 1)
     assert stage.GetDefaultPrim().GetPath() == "/World"
-    assert stage.GetPrimAtPath("/World/dog").GetTypeName() == "SkelRoot"
+    assert stage.GetPrimAtPath("/World/animals").GetTypeName() == "SkelRoot"
+    assert stage.GetPrimAtPath("/World/animals/dog").GetTypeName() == "Skeleton"
+    assert stage.GetPrimAtPath("/World").GetAttribute("userProperties:quadpipe:fps").Get() == clip.fps
     assert stage.GetRootLayer().customLayerData["quadpipe"]["status"] == "ok"
 
 
@@ -502,7 +504,7 @@ def test_usd_joints_follow_the_clip_on_every_frame(clip, written, suffix):
     from pxr import Usd, UsdGeom
 
     stage = Usd.Stage.Open(str(written[suffix]))
-    query, _ = skel_query(stage, "/World/dog")
+    query, _ = skel_query(stage, "/World/animals")
     track = clip.animals[0]
     assert [str(j).split("/")[-1] for j in query.GetJointOrder()] == list(track.roles)
     for frame in range(clip.frame_count):
@@ -524,7 +526,7 @@ def test_usd_rigid_skinning_moves_each_mesh_with_its_bone(clip, bones_written):
     from pxr import Usd, UsdGeom
 
     stage = Usd.Stage.Open(str(bones_written[".usdc"]))
-    query, binding = skel_query(stage, "/World/dog")
+    query, binding = skel_query(stage, "/World/animals")
     track = clip.animals[0]
     targets = binding.GetSkinningTargets()
     assert len(targets) == len(track.roles)
@@ -548,7 +550,7 @@ def test_usd_quaternions_are_stored_real_part_first(clip, written):
     from pxr import Usd, UsdSkel
 
     stage = Usd.Stage.Open(str(written[".usda"]))
-    animation = UsdSkel.Animation(stage.GetPrimAtPath("/World/dog/animation"))
+    animation = UsdSkel.Animation(stage.GetPrimAtPath("/World/animals/dog/animation"))
     frame = clip.frame_count - 1
     root = animation.GetRotationsAttr().Get(frame)[0]
     stored = np.array([root.GetReal(), *root.GetImaginary()])

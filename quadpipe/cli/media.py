@@ -1,4 +1,5 @@
-"""Commands that turn a clip into pictures or figures: render, analyze."""
+"""Commands that turn a clip into pictures or figures, or bring it into other tools: render,
+analyze, blender-script."""
 
 from __future__ import annotations
 
@@ -118,3 +119,25 @@ def analyze(
     )
     typer.echo(report.to_json().rstrip("\n") if fmt == OutputFormat.json else format_report(report))
     write_gait_files(report, output, diagram)
+
+
+def blender_script(
+    output: Annotated[Path, typer.Option("-o", "--output", help="Where to write the script (.py).")] = Path(
+        "quadpipe_import.py"
+    ),
+) -> None:
+    """Write the Blender import script: it imports .glb/.gltf, .usd/.usda/.usdc/.usdz and .bvh clips
+    with the scene set to the clip's frame rate and frame range (Blender's own importers keep 24
+    fps). Run it from the command line, from Blender's Text Editor (then File > Import > quadpipe
+    clip), or import it as a module (`quadpipe_import.import_clip(path)`). See docs/dcc.md.
+
+    Example: quadpipe blender-script -o quadpipe_import.py && blender -P quadpipe_import.py -- walk.glb
+    """
+    from quadpipe.core.atomic import check_writable, write_text
+    from quadpipe.core.outputs import check_suffix
+    from quadpipe.exporters import blender_script as script_source
+
+    check_suffix("-o", output, (".py",), "the Blender script")
+    check_writable(output)
+    write_text(output, script_source())
+    typer.echo(f"wrote {output}")

@@ -100,13 +100,26 @@ class AnimalTrack:
 
 @dataclass
 class PropTrack:
-    """A moving rigid object (thrown box, ball, capsule): its shape and per-frame pose."""
+    """A moving rigid object (thrown box, ball, capsule): its shape and per-frame pose.
+
+    Attributes:
+        present: (F,) booleans, whether the prop is in the scene at each frame (a thrown box
+            waits out of the scene until its throw, at a pose that means nothing); None when
+            it always is.
+    """
 
     name: str
     shape: Shape
     positions: np.ndarray
     rotations: np.ndarray
     mass_kg: float
+    present: np.ndarray | None = None
+
+    def presence(self) -> np.ndarray:
+        """(F,) booleans: whether the prop is in the scene at each frame."""
+        if self.present is None:
+            return np.ones(len(self.positions), dtype=bool)
+        return np.asarray(self.present, dtype=bool)
 
 
 @dataclass

@@ -8,6 +8,9 @@ used. To add a format, write a module and add an entry to `CLIP_FORMATS`.
 
 Every write is atomic (`quadpipe.core.atomic`): a failed export never leaves a partial file
 behind, nor a `.gltf` without its `.bin`.
+
+`blender_script()` is the source of `blender_import.py`, the script that imports clips into
+Blender at their frame rate and range (`quadpipe blender-script`; docs/dcc.md).
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -86,6 +90,15 @@ MESH_SUFFIXES = frozenset({".glb", ".gltf", ".usda", ".usdc", ".usdz"})
 """The formats that hold the animals' meshes: their bodies, or their bones for `look="bones"`."""
 
 Exporter = Callable[[Clip, Path], None]
+
+BLENDER_SCRIPT = "blender_import.py"
+"""The Blender import script shipped in this package (it runs inside Blender, on `bpy` alone)."""
+
+
+def blender_script() -> str:
+    """The source of the script that imports clips into Blender at their frame rate and range
+    (`quadpipe blender-script` writes it out; see `quadpipe.exporters.blender_import`)."""
+    return resources.files(__name__).joinpath(BLENDER_SCRIPT).read_text(encoding="utf-8")
 
 
 @dataclass(frozen=True)
