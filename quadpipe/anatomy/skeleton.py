@@ -56,13 +56,15 @@ class JointRecord:
 
 @dataclass(frozen=True)
 class RawSkeleton:
-    """A skeleton as read from a file: joints in file order, units and up axis declared."""
+    """A skeleton as read from a file: joints in file order, units and up axis declared, and
+    the reader's warnings (guessed units, joints it could not place exactly)."""
 
     name: str
     source: str
     joints: tuple[JointRecord, ...]
     units: str = "cm"
     up: str = "y"
+    warnings: tuple[Issue, ...] = ()
 
     def where(self, joint: JointRecord | None = None) -> Location:
         """Location of a joint (or of the file) for messages."""
