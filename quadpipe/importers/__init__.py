@@ -81,10 +81,10 @@ def read_raw_skeleton(path: str | Path, *, rest_frame: int | None = None, units:
     options = {key: value for key, value in (("rest_frame", rest_frame), ("units", units)) if value is not None}
     unknown = sorted(set(options) - set(inspect.signature(reader).parameters))
     if unknown:
+        what = {"rest_frame": "no motion to take --rest-frame from", "units": "their own unit"}
         raise QuadpipeError.single(
             "no-motion",
-            f"{path.suffix or path.name} files carry one rest pose and declare their unit: "
-            f"{' and '.join(o.replace('_', '-') for o in unknown)} do not apply",
+            f"{path.suffix or path.name} files have {' and declare '.join(what[o] for o in unknown)}",
             file=str(path),
             hint="--rest-frame and units apply to BVH files; leave them out for this file",
         )
