@@ -36,7 +36,9 @@ WALK_SECONDS = 10.0
 def rig_param(name: str) -> object:
     """A manifest entry as a test parameter; rigs that need #14 item 2 (role chains) are strict xfails."""
     needs = MANIFEST[name].get("needs")
-    marks = [pytest.mark.xfail(strict=True, raises=QuadpipeError, reason=f"needs {needs}: role chains")] if needs else []
+    marks = (
+        [pytest.mark.xfail(strict=True, raises=QuadpipeError, reason=f"needs {needs}: role chains")] if needs else []
+    )
     return pytest.param(name, marks=marks, id=name)
 
 

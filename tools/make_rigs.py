@@ -57,7 +57,9 @@ class Rig:
     joints: dict[str, RigJoint] = field(default_factory=dict)
 
     def add(self, name: str, parent: str | None, position: Sequence[float], end: Sequence[float] | None = None) -> None:
-        self.joints[name] = RigJoint(name, parent, np.asarray(position, float), None if end is None else np.asarray(end, float))
+        self.joints[name] = RigJoint(
+            name, parent, np.asarray(position, float), None if end is None else np.asarray(end, float)
+        )
         if parent is not None:
             self.joints[parent].children.append(name)
 
@@ -83,7 +85,9 @@ def chain_end(role: str, kept: set[str], positions: dict[str, np.ndarray], ends:
     return ends[current]
 
 
-def rig_from_roles(animal: str, names: dict[str, str], parents: dict[str, str] | None = None, rig: Rig | None = None) -> Rig:
+def rig_from_roles(
+    animal: str, names: dict[str, str], parents: dict[str, str] | None = None, rig: Rig | None = None
+) -> Rig:
     """A rig keeping the roles named in `names` (role -> joint name); dropped roles vanish.
 
     `parents` moves joints (joint name -> new parent joint name, already in `rig`).
@@ -189,7 +193,9 @@ def write_bvh(rig: Rig, path: Path, style: BvhStyle) -> None:
             emit(rig.joints[child], depth + 1)
         if joint.end is not None:
             end = turn[joint.name] @ (joint.end - joint.position) * style.scale
-            lines.extend([f"{pad}\tEnd Site", f"{pad}\t{{", f"{pad}\t\tOFFSET {' '.join(num(v) for v in end)}", f"{pad}\t}}"])
+            lines.extend(
+                [f"{pad}\tEnd Site", f"{pad}\t{{", f"{pad}\t\tOFFSET {' '.join(num(v) for v in end)}", f"{pad}\t}}"]
+            )
         lines.append(f"{pad}}}")
 
     for root in rig.roots():
@@ -366,23 +372,77 @@ HIND_KINDS = ("hip", "knee", "ankle", "hpha0", "hpha1", "hpha2")
 
 def wolf_cog() -> tuple[Rig, dict]:
     """Maya: a COG root above the pelvis, `L_`/`R_` names, constraints and connections."""
-    bones = dict(zip(FRONT_KINDS + HIND_KINDS, ("Scapula", "Shoulder", "Elbow", "Wrist", "FrontToe1", "FrontToe2", "Hip", "Knee", "Ankle", "Toe1", "Toe2", "Toe3")))
-    names = {"pelvis": "Pelvis", "spine0": "Spine1", "spine1": "Spine2", "spine2": "Spine3", "thorax": "Chest", "head": "Head"}
+    bones = dict(
+        zip(
+            FRONT_KINDS + HIND_KINDS,
+            (
+                "Scapula",
+                "Shoulder",
+                "Elbow",
+                "Wrist",
+                "FrontToe1",
+                "FrontToe2",
+                "Hip",
+                "Knee",
+                "Ankle",
+                "Toe1",
+                "Toe2",
+                "Toe3",
+            ),
+        )
+    )
+    names = {
+        "pelvis": "Pelvis",
+        "spine0": "Spine1",
+        "spine1": "Spine2",
+        "spine2": "Spine3",
+        "thorax": "Chest",
+        "head": "Head",
+    }
     names |= {f"neck{i}": f"Neck{i + 1}" for i in range(5)} | {f"tail{i}": f"Tail{i + 1}" for i in range(4)}
     names |= side_names(lambda leg, bone: f"{leg[0].upper()}_{bone}", bones)
     positions, _ = source_points("dog")
     rig = Rig()
     rig.add("COG", None, positions["pelvis"] + np.array([0.0, 4.0, 6.0]))
     rig_from_roles("dog", names, parents={"Pelvis": "COG", "Spine1": "COG"}, rig=rig)
-    style = MayaStyle("wolf_rig", parent_constrained="Head", point_constrained="Tail1", translate_connected="L_Hip", keyed="L_Knee")
+    style = MayaStyle(
+        "wolf_rig", parent_constrained="Head", point_constrained="Tail1", translate_connected="L_Hip", keyed="L_Knee"
+    )
     return rig, {"animal": "dog", "maya": style}
 
 
 def biped_lion() -> tuple[Rig, dict]:
     """3ds Max Biped BVH in inches: `Bip01` root, thighs and tail under `Bip01 Spine`."""
-    bones = dict(zip(FRONT_KINDS + HIND_KINDS, ("Clavicle", "UpperArm", "Forearm", "Hand", "Finger0", "Finger01", "Thigh", "Calf", "HorseLink", "Foot", "Toe0", "Toe01")))
-    names = {"pelvis": "Bip01 Spine", "spine0": "Bip01 Spine1", "spine1": "Bip01 Spine2", "spine2": "Bip01 Spine3", "thorax": "Bip01 Ribcage", "head": "Bip01 Head"}
-    names |= {f"neck{i}": f"Bip01 Neck{i or ''}" for i in range(5)} | {f"tail{i}": f"Bip01 Tail{i or ''}" for i in range(4)}
+    bones = dict(
+        zip(
+            FRONT_KINDS + HIND_KINDS,
+            (
+                "Clavicle",
+                "UpperArm",
+                "Forearm",
+                "Hand",
+                "Finger0",
+                "Finger01",
+                "Thigh",
+                "Calf",
+                "HorseLink",
+                "Foot",
+                "Toe0",
+                "Toe01",
+            ),
+        )
+    )
+    names = {
+        "pelvis": "Bip01 Spine",
+        "spine0": "Bip01 Spine1",
+        "spine1": "Bip01 Spine2",
+        "spine2": "Bip01 Spine3",
+        "thorax": "Bip01 Ribcage",
+        "head": "Bip01 Head",
+    }
+    names |= {f"neck{i}": f"Bip01 Neck{i or ''}" for i in range(5)} | {
+        f"tail{i}": f"Bip01 Tail{i or ''}" for i in range(4)
+    }
     names |= side_names(lambda leg, bone: f"Bip01 {leg[0].upper()} {bone}", bones)
     positions, _ = source_points("lion")
     rig = Rig()
@@ -396,7 +456,14 @@ def mocap_dog() -> tuple[Rig, dict]:
     """Mocap BVH in metres: `LeftArm` is a fore leg; the zero pose has the legs forward."""
     front = ("LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand", "LeftFinger1", "LeftFinger2")
     hind = ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", "LeftToe1", "LeftToe2")
-    names = {"pelvis": "Hips", "spine0": "Spine", "spine1": "Spine1", "spine2": "Spine2", "thorax": "Spine3", "head": "Head"}
+    names = {
+        "pelvis": "Hips",
+        "spine0": "Spine",
+        "spine1": "Spine1",
+        "spine2": "Spine2",
+        "thorax": "Spine3",
+        "head": "Head",
+    }
     names |= {f"neck{i}": f"Neck{i or ''}" for i in range(5)} | {f"tail{i}": f"Tail{i or ''}" for i in range(4)}
     for leg in ("lf", "rf", "lh", "rh"):
         chain = front if leg.endswith("f") else hind
@@ -410,19 +477,56 @@ def mocap_dog() -> tuple[Rig, dict]:
 
 def deer_short() -> tuple[Rig, dict]:
     """Rigify `.L`/`.R` BVH: 2 spine, 2 neck and 3-bone legs, no toes (needs #14 item 2)."""
-    names = {"pelvis": "hips", "spine0": "spine.001", "spine2": "spine.002", "thorax": "chest", "neck0": "neck.001", "neck3": "neck.002", "head": "head"}
+    names = {
+        "pelvis": "hips",
+        "spine0": "spine.001",
+        "spine2": "spine.002",
+        "thorax": "chest",
+        "neck0": "neck.001",
+        "neck3": "neck.002",
+        "head": "head",
+    }
     names |= {f"tail{i}": f"tail.00{i + 1}" for i in range(4)}
     for leg in ("lf", "rf", "lh", "rh"):
         side = "L" if leg[0] == "l" else "R"
-        bones = (("shoulder", "upper_arm"), ("elbow", "forearm"), ("wrist", "hand")) if leg.endswith("f") else (("hip", "thigh"), ("knee", "shin"), ("ankle", "foot"))
+        bones = (
+            (("shoulder", "upper_arm"), ("elbow", "forearm"), ("wrist", "hand"))
+            if leg.endswith("f")
+            else (("hip", "thigh"), ("knee", "shin"), ("ankle", "foot"))
+        )
         names |= {f"{leg}_{kind}": f"{bone}.{side}" for kind, bone in bones}
     return rig_from_roles("goat", names), {"animal": "goat", "bvh": BvhStyle("XYZ"), "needs": "#14 item 2"}
 
 
 def elephant_extras() -> tuple[Rig, dict]:
     """Maya, `F`/`B` leg names, with ears, jaw and a trunk under the head."""
-    bones = dict(zip(FRONT_KINDS + HIND_KINDS, ("Scapula", "Humerus", "Radius", "Carpus", "Toe1", "Toe2", "Femur", "Tibia", "Tarsus", "Toe1", "Toe2", "Toe3")))
-    names = {"pelvis": "Root", "spine0": "Back1", "spine1": "Back2", "spine2": "Back3", "thorax": "Withers", "head": "Head"}
+    bones = dict(
+        zip(
+            FRONT_KINDS + HIND_KINDS,
+            (
+                "Scapula",
+                "Humerus",
+                "Radius",
+                "Carpus",
+                "Toe1",
+                "Toe2",
+                "Femur",
+                "Tibia",
+                "Tarsus",
+                "Toe1",
+                "Toe2",
+                "Toe3",
+            ),
+        )
+    )
+    names = {
+        "pelvis": "Root",
+        "spine0": "Back1",
+        "spine1": "Back2",
+        "spine2": "Back3",
+        "thorax": "Withers",
+        "head": "Head",
+    }
     names |= {f"neck{i}": f"Neck{i + 1}" for i in range(5)} | {f"tail{i}": f"Tail{i + 1}" for i in range(4)}
     names |= side_names(lambda leg, bone: f"{'F' if leg.endswith('f') else 'B'}{leg[0].upper()}_{bone}", bones)
     rig = rig_from_roles("elephant", names)
@@ -438,16 +542,49 @@ def elephant_extras() -> tuple[Rig, dict]:
     rig.add("Jaw", "Head", head.position + np.array([0.0, -25.0, 20.0]), head.position + np.array([0.0, -45.0, 60.0]))
     for side, x in (("L", 1.0), ("R", -1.0)):
         rig.add(f"{side}_Ear1", "Head", head.position + np.array([x * 30.0, 5.0, -10.0]))
-        rig.add(f"{side}_Ear2", f"{side}_Ear1", head.position + np.array([x * 80.0, 0.0, -20.0]), head.position + np.array([x * 110.0, -40.0, -25.0]))
+        rig.add(
+            f"{side}_Ear2",
+            f"{side}_Ear1",
+            head.position + np.array([x * 80.0, 0.0, -20.0]),
+            head.position + np.array([x * 110.0, -40.0, -25.0]),
+        )
     return rig, {"animal": "elephant", "maya": MayaStyle("elephant_rig")}
 
 
 def horse_frontback() -> tuple[Rig, dict]:
     """BVH with `Front`/`Back` and `Left`/`Right` words, Xposition..Zrotation Yrotation Xrotation."""
-    bones = dict(zip(FRONT_KINDS + HIND_KINDS, ("Scapula", "Upper", "Lower", "Cannon", "Pastern", "Hoof", "Upper", "Lower", "Cannon", "Fetlock", "Pastern", "Hoof")))
-    names = {"pelvis": "Pelvis", "spine0": "Lumbar1", "spine1": "Lumbar2", "spine2": "Thoracic1", "thorax": "Thoracic2", "head": "Skull"}
+    bones = dict(
+        zip(
+            FRONT_KINDS + HIND_KINDS,
+            (
+                "Scapula",
+                "Upper",
+                "Lower",
+                "Cannon",
+                "Pastern",
+                "Hoof",
+                "Upper",
+                "Lower",
+                "Cannon",
+                "Fetlock",
+                "Pastern",
+                "Hoof",
+            ),
+        )
+    )
+    names = {
+        "pelvis": "Pelvis",
+        "spine0": "Lumbar1",
+        "spine1": "Lumbar2",
+        "spine2": "Thoracic1",
+        "thorax": "Thoracic2",
+        "head": "Skull",
+    }
     names |= {f"neck{i}": f"Cervical{i + 1}" for i in range(5)} | {f"tail{i}": f"Dock{i + 1}" for i in range(4)}
-    names |= side_names(lambda leg, bone: f"{'Front' if leg.endswith('f') else 'Back'}{'Left' if leg[0] == 'l' else 'Right'}{bone}", bones)
+    names |= side_names(
+        lambda leg, bone: f"{'Front' if leg.endswith('f') else 'Back'}{'Left' if leg[0] == 'l' else 'Right'}{bone}",
+        bones,
+    )
     return rig_from_roles("horse", names), {"animal": "horse", "bvh": BvhStyle("ZYX", root_position_first=False)}
 
 
@@ -500,10 +637,15 @@ def main(output_dir: Path = OUTPUT_DIR) -> None:
             write_maya(rig, path, options["maya"])
         else:
             write_bvh(rig, path, options["bvh"])
-        entry: dict = {"animal": options["animal"], "hp_cm": round(load_skeleton(SOURCES / f"{options['animal']}.xml").pelvis_height * 100, 2)}
+        entry: dict = {
+            "animal": options["animal"],
+            "hp_cm": round(load_skeleton(SOURCES / f"{options['animal']}.xml").pelvis_height * 100, 2),
+        }
         if "roles" in options:
             roles_path = path.with_suffix(".roles.yaml")
-            roles_path.write_text(f"# {file_name}: 3ds Max exported it in inches\n" + yaml.safe_dump(options["roles"]), encoding="utf-8")
+            roles_path.write_text(
+                f"# {file_name}: 3ds Max exported it in inches\n" + yaml.safe_dump(options["roles"]), encoding="utf-8"
+            )
             entry["roles"] = roles_path.name
         for key in ("rest_frame", "needs"):
             if key in options:

@@ -70,7 +70,9 @@ def _children(raw: RawSkeleton) -> dict[str, list[JointRecord]]:
     return children
 
 
-def _leg_joints(leg: str, joint_of: Mapping[str, JointRecord], children: Mapping[str, list[JointRecord]]) -> list[JointRecord]:
+def _leg_joints(
+    leg: str, joint_of: Mapping[str, JointRecord], children: Mapping[str, list[JointRecord]]
+) -> list[JointRecord]:
     """The joints of a leg: its top placed joint and everything under it."""
     placed = [joint_of[role] for role in ROLES if leg_of(role) == leg and role in joint_of]
     found, stack = [], placed[:1]

@@ -240,7 +240,12 @@ def resolve_animal(
             file=str(source),
             hint=f"skeleton formats: {', '.join(sorted(readers))}; animal configs: .yaml; or an animal name",
         )
-    options = {"--limits": limits, "--roles": role_map, "--mass": mass_kg, "--rest-frame": rest_frame}
+    options: dict[str, object] = {
+        "--limits": limits,
+        "--roles": role_map,
+        "--mass": mass_kg,
+        "--rest-frame": rest_frame,
+    }
     _refuse_skeleton_options(source, options)
     return load_animal(source)
 

@@ -135,7 +135,9 @@ def load_limits(path: str | Path) -> JointLimits:
     return _reader_for(path, LIMITS_FORMATS, "limits table")(path)
 
 
-def write_guessed_role_map(skeleton_path: str | Path, out_path: str | Path, *, rest_frame: int | None = None) -> RoleGuess:
+def write_guessed_role_map(
+    skeleton_path: str | Path, out_path: str | Path, *, rest_frame: int | None = None
+) -> RoleGuess:
     """Guess the roles of a skeleton file and write them as a role map (even when incomplete).
 
     Returns:

@@ -300,7 +300,6 @@ class _Parser:
                 "an End Site holds only its OFFSET",
             )
 
-
     def motion(self) -> Motion:
         """The MOTION section's tokens (after `parse`), for `pose_at`."""
         return Motion(self.source, self.tokens[self.index :], len(self.lines))

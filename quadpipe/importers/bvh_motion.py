@@ -27,9 +27,16 @@ if TYPE_CHECKING:
 
 
 class _Token(Protocol):
-    text: str
-    line: int
-    column: int
+    """A word of the file and where it is (the BVH reader's tokens)."""
+
+    @property
+    def text(self) -> str: ...
+
+    @property
+    def line(self) -> int: ...
+
+    @property
+    def column(self) -> int: ...
 
 
 @dataclass(frozen=True)
@@ -97,7 +104,9 @@ class Motion:
         except ValueError:
             value = math.nan
         if not math.isfinite(value):
-            self.fail(token, "bvh-bad-number", f"{token.text!r} is not a number (MOTION)", "write a plain decimal number")
+            self.fail(
+                token, "bvh-bad-number", f"{token.text!r} is not a number (MOTION)", "write a plain decimal number"
+            )
         return value
 
 

@@ -103,5 +103,7 @@ def _replacement(
     if below > 0:
         end = end + below * up
     if np.linalg.norm(end - start) < 1e-12:
-        end = start + CONTINUED * np.linalg.norm(start - parent) * np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+        end = start + CONTINUED * np.linalg.norm(start - parent) * np.cross(
+            up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0]
+        )
     return float(end[0]), float(end[1]), float(end[2])

@@ -385,7 +385,11 @@ class _Reader(MelScript):
                 continue
             if source_node is not None and source_node.kind in CONSTRAINT_TYPES and source_attr in CONSTRAINT_OUTPUTS:
                 drivers.constrained[id(target_node)] = source_node
-            elif source_node is not None and source_attr in ATTRIBUTES and _copy(source_node, source_attr, target_node, target_attr):
+            elif (
+                source_node is not None
+                and source_attr in ATTRIBUTES
+                and _copy(source_node, source_attr, target_node, target_attr)
+            ):
                 continue
             else:
                 drivers.unevaluated.append(f"{target.text} (from {source.text})")
@@ -443,7 +447,7 @@ def _copy(source: _Node, source_attr: str, target: _Node, target_attr: str) -> b
     if target_index is None:
         current = list(value)
     else:
-        current[target_index] = float(value[source_index])  # type: ignore[index]
+        current[target_index] = float(value[source_index])
     target.values[target_key] = current
     return True
 
