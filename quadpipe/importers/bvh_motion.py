@@ -15,15 +15,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, NoReturn, Protocol
+from typing import NoReturn, Protocol
 
 import numpy as np
 
 from quadpipe.anatomy.skeleton import JointRecord
 from quadpipe.core.errors import QuadpipeError
-
-if TYPE_CHECKING:
-    from quadpipe.importers.bvh import _Joint
 
 
 class _Token(Protocol):
@@ -37,6 +34,25 @@ class _Token(Protocol):
 
     @property
     def column(self) -> int: ...
+
+
+class _Joint(Protocol):
+    """A parsed BVH joint: what posing it needs."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def parent(self) -> str | None: ...
+
+    @property
+    def offset(self) -> tuple[float, float, float]: ...
+
+    @property
+    def end_offset(self) -> tuple[float, float, float] | None: ...
+
+    @property
+    def channels(self) -> tuple[str, ...]: ...
 
 
 @dataclass(frozen=True)

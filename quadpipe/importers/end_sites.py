@@ -28,6 +28,8 @@ CONTINUED = 0.5
 
 def check_end_sites(raw: RawSkeleton) -> RawSkeleton:
     """`raw` with its junk end sites replaced, and a warning naming them."""
+    if not raw.joints:
+        return raw
     by_name = {joint.name: joint for joint in raw.joints}
     up = UP_AXES.get(raw.up, UP_AXES["y"])
     points = np.asarray([j.position for j in raw.joints], dtype=float)
