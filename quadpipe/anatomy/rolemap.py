@@ -252,8 +252,8 @@ def resolve_roles(raw: RawSkeleton, role_map: str | Path | None = None) -> RoleR
         return RoleResolution(raw, {})
     check_structure(raw)
     guess = guess_roles(raw)
-    if any(role not in file_roles for role in guess.missing):
-        raise QuadpipeError(_missing_issues(raw, guess))
+    if any(role not in file_roles for role in guess.missing) or guess.problems:
+        raise QuadpipeError(guess.issues(raw))
     named = {j.name for j in raw.joints if j.role}
     roles = {name: role for name, role in guess.roles.items() if name not in named and role not in file_roles}
     warnings = tuple(
@@ -267,18 +267,6 @@ def resolve_roles(raw: RawSkeleton, role_map: str | Path | None = None) -> RoleR
         for note in guess.skips
     )
     return RoleResolution(raw, roles, warnings, guess)
-
-
-def _missing_issues(raw: RawSkeleton, guess: RoleGuess) -> list[Issue]:
-    shown = ", ".join(guess.missing[:12]) + (" ..." if len(guess.missing) > 12 else "")
-    error = Issue(
-        "missing-roles",
-        f"{len(guess.missing)} of the 39 roles could not be guessed from the joints' names and layout: {shown}",
-        raw.where(),
-        f"`quadpipe roles {raw.source} -o roles.yaml` writes what was guessed; complete it and pass it with --roles roles.yaml",
-    )
-    notes = [Issue("guessed-roles", note, raw.where(), severity="note") for note in guess.notes]
-    return [error, *notes]
 
 
 def role_map_text(

@@ -8,7 +8,7 @@ and axes). `assemble` checks it, gives each joint a role, converts it to quadpip
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -56,13 +56,15 @@ class JointRecord:
 
 @dataclass(frozen=True)
 class RawSkeleton:
-    """A skeleton as read from a file: joints in file order, units and up axis declared."""
+    """A skeleton as read from a file: joints in file order, units and up axis declared, and
+    the reader's warnings (guessed units, joints it could not place exactly)."""
 
     name: str
     source: str
     joints: tuple[JointRecord, ...]
     units: str = "cm"
     up: str = "y"
+    warnings: tuple[Issue, ...] = ()
 
     def where(self, joint: JointRecord | None = None) -> Location:
         """Location of a joint (or of the file) for messages."""
@@ -178,6 +180,29 @@ def assemble(raw: RawSkeleton, role_of: Mapping[str, str] | None = None) -> Skel
     skeleton = Skeleton(raw.name, raw.source, bones, warnings)
     _check_sides(raw, skeleton)
     return skeleton
+
+
+def reroot(raw: RawSkeleton, name: str) -> RawSkeleton:
+    """The same joints with `name` as the root: parents reversed on the path from it up to the
+    file's root (a centre-of-gravity or `Bip01` root above the pelvis hangs under it), joints
+    listed parents first. Positions do not change."""
+    by_name = {joint.name: joint for joint in raw.joints}
+    path = [name]
+    while (parent := by_name[path[-1]].parent) is not None:
+        path.append(parent)
+    parents = {joint.name: joint.parent for joint in raw.joints}
+    parents.update({child: parent for parent, child in zip(path, path[1:])})
+    parents[name] = None
+    children: dict[str | None, list[str]] = {}
+    for joint in raw.joints:
+        children.setdefault(parents[joint.name], []).append(joint.name)
+    order, stack = [], [name]
+    while stack:
+        current = stack.pop()
+        order.append(replace(by_name[current], parent=parents[current]))
+        stack.extend(reversed(children.get(current, [])))
+    others = [joint for joint in raw.joints if joint.name not in {j.name for j in order}]
+    return replace(raw, joints=tuple(order + others))
 
 
 def check_coordinates(raw: RawSkeleton) -> RawSkeleton:

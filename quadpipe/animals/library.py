@@ -185,15 +185,17 @@ def animal_from_files(
     limits_path: str | Path,
     role_map: str | Path | None = None,
     mass_kg: float | None = None,
+    rest_frame: int | None = None,
 ) -> Animal:
-    """Make an animal from a bare skeleton file and limits table (no config).
+    """Make an animal from a bare skeleton file and limits table (no config); `rest_frame`
+    takes that frame of the file's motion as the rest pose (see `load_skeleton`).
 
     HP is read off the skeleton; without a mass, the animal weighs what a dog scaled to its
     pelvis height would (mass grows with the cube of size).
     """
     from quadpipe.importers import load_limits, load_skeleton
 
-    skeleton = load_skeleton(skeleton_path, role_map)
+    skeleton = load_skeleton(skeleton_path, role_map, rest_frame=rest_frame)
     limits = load_limits(limits_path).resolve()
     hp = skeleton.pelvis_height
     if mass_kg is None:
@@ -214,6 +216,7 @@ def resolve_animal(
     limits: str | Path | None = None,
     role_map: str | Path | None = None,
     mass_kg: float | None = None,
+    rest_frame: int | None = None,
 ) -> Animal:
     """An animal from a built-in name, an animal config (.yaml) or a bare skeleton file.
 
@@ -222,13 +225,14 @@ def resolve_animal(
         limits: limits table for a bare skeleton (default: the thesis's table).
         role_map: role map for a bare skeleton.
         mass_kg: body mass for a bare skeleton (default: a dog scaled to its size).
+        rest_frame: for a bare skeleton, the frame of its motion to take as the rest pose.
     """
     from quadpipe.importers import skeleton_readers
 
     suffix = Path(str(source)).suffix.lower()
     readers = skeleton_readers()
     if suffix in readers:
-        return animal_from_files(source, limits or default_limits_path(), role_map, mass_kg)
+        return animal_from_files(source, limits or default_limits_path(), role_map, mass_kg, rest_frame)
     if suffix and suffix not in (configs.CONFIG_SUFFIX, ".yml"):
         raise QuadpipeError.single(
             "unknown-format",
@@ -236,11 +240,17 @@ def resolve_animal(
             file=str(source),
             hint=f"skeleton formats: {', '.join(sorted(readers))}; animal configs: .yaml; or an animal name",
         )
-    _refuse_skeleton_options(source, {"--limits": limits, "--roles": role_map, "--mass": mass_kg})
+    options: dict[str, object] = {
+        "--limits": limits,
+        "--roles": role_map,
+        "--mass": mass_kg,
+        "--rest-frame": rest_frame,
+    }
+    _refuse_skeleton_options(source, options)
     return load_animal(source)
 
 
-_CONFIG_KEY_OF_OPTION = {"--limits": "limits", "--roles": "roles", "--mass": "mass_kg"}
+_CONFIG_KEY_OF_OPTION = {"--limits": "limits", "--roles": "roles", "--mass": "mass_kg", "--rest-frame": "skeleton"}
 """The animal config key that sets what each option for a bare skeleton sets."""
 
 

@@ -47,6 +47,10 @@ LimitsOpt = Annotated[
     Path | None, typer.Option("--limits", help="Joint-limit table for a bare skeleton (default: the thesis's).")
 ]
 RolesOpt = Annotated[Path | None, typer.Option("--roles", help="Role map YAML for a skeleton's own bone names.")]
+RestFrameOpt = Annotated[
+    int | None,
+    typer.Option("--rest-frame", min=0, help="Take frame N (from 0) of a BVH file's motion as the standing rest pose."),
+]
 
 
 def _sane_mass(mass: float | None) -> float | None:
