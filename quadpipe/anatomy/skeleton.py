@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from quadpipe.anatomy.binding import RigBinding
 from quadpipe.anatomy.roles import CHILDREN, FRONT_CHAIN, HIND_CHAIN, LEAVES, LEGS, MAIN_CHILD, PARENT, ROLES, TOE_BONES
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.limits import SKELETON_COORDINATE_M
@@ -109,12 +110,15 @@ class Skeleton:
         source: the file it came from.
         bones: role -> Bone, in hierarchy order (parents first).
         warnings: non-fatal issues found while assembling (unplaced bones, ...).
+        rig: the source rig's own joints and the roles they follow, when they are not simply
+            the 39 roles (`quadpipe.anatomy.rig`).
     """
 
     name: str
     source: str
     bones: dict[str, Bone]
     warnings: tuple[Issue, ...] = field(default=())
+    rig: RigBinding | None = None
 
     def __getitem__(self, role: str) -> Bone:
         return self.bones[role]
@@ -178,6 +182,13 @@ def assemble(raw: RawSkeleton, role_of: Mapping[str, str] | None = None) -> Skel
     skeleton = Skeleton(raw.name, raw.source, bones, warnings)
     _check_sides(raw, skeleton)
     return skeleton
+
+
+def body_frame(raw: RawSkeleton, role_of: Mapping[str, str]) -> tuple[np.ndarray, float]:
+    """The rotation from the file's axes to the body frame and the file unit in metres, for a
+    skeleton whose joints `role_of` (name -> role) includes the pelvis and the thorax."""
+    joint_of_role = {role: joint for joint in raw.joints if (role := role_of.get(joint.name, joint.role))}
+    return _body_rotation(raw, joint_of_role), UNIT_TO_METRES[raw.units]
 
 
 def check_coordinates(raw: RawSkeleton) -> RawSkeleton:

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 from quadpipe.animals.sizing import FRAME_RATE
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.bodies import Look
     from quadpipe.core.errors import Location
     from quadpipe.sim.simulation import Result
@@ -24,7 +25,7 @@ METRICS_SUFFIX = ".metrics.json"
 
 
 def bake(
-    animal: str,
+    animal: str | AnimalSource,
     controller: str,
     *,
     seconds: float,

@@ -13,9 +13,10 @@ from dataclasses import replace
 from pathlib import Path
 
 from quadpipe.anatomy.limits import JointLimits
+from quadpipe.anatomy.rig import assemble_rig
 from quadpipe.anatomy.role_guess import RoleGuess, guess_roles
 from quadpipe.anatomy.rolemap import resolve_roles, write_role_map
-from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble, check_coordinates
+from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, check_coordinates
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.formats import FileFormat, FormatTable
 from quadpipe.core.textfiles import missing_file
@@ -76,14 +77,15 @@ def load_skeleton(path: str | Path, role_map: str | Path | None = None) -> Skele
 
     Returns:
         The skeleton; its warnings include the role map's unused patterns and guessed
-        chains that skipped joints.
+        chains that skipped joints. A rig whose joints are not simply the 39 roles (chains,
+        synthesised roles, extra bones: `quadpipe.anatomy.rig`) comes with its `rig` binding.
 
     Raises:
         QuadpipeError: a bad file or role map, or roles that could not be placed (the
             message says what was guessed).
     """
     resolution = resolve_roles(read_raw_skeleton(path), role_map)
-    skeleton = assemble(resolution.raw, resolution.roles)
+    skeleton = assemble_rig(resolution.raw, resolution.roles)
     return replace(skeleton, warnings=resolution.warnings + skeleton.warnings)
 
 

@@ -38,6 +38,7 @@ from quadpipe.preview.throws import POOL_SIZE, ThrowKind, ThrowPool, add_throw_p
 from quadpipe.world.goals import vector_text
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.controllers.language.compiler import CompiledController
     from quadpipe.controllers.runtime.runtime import ControllerRuntime
     from quadpipe.sim.simulation import Simulation
@@ -139,7 +140,7 @@ class LivePreview(Preview):
 
     def __init__(
         self,
-        animal: str,
+        animal: str | AnimalSource,
         controller: str,
         scene: str | None = None,
         parameters: Mapping[str, str] | None = None,
