@@ -10,6 +10,9 @@ handedness is kept), lengths in **centimetres** (quadpipe's BVH importer reads c
 - `JOINT <role>` for every other bone, `OFFSET` = its rest offset from its parent's joint,
   three channels `Zrotation Xrotation Yrotation` (degrees): the joint's rotation relative to
   its parent is Rz * Rx * Ry, in that order, as BVH readers compose channels.
+- A joint whose offset from its parent changes during the clip (on a rig whose one bone
+  carries a bending chain of roles, see `quadpipe.clip.retarget`) has the root's six channels,
+  its position channels holding that offset; every other joint keeps its fixed OFFSET.
 - `End Site` under each leaf bone (head, tail tip, toes) at the bone's end.
 - `Frame Time` = 1 / fps. Angles are unwrapped frame to frame (no 360-degree jumps).
 
@@ -32,6 +35,10 @@ CM_PER_M = 100.0
 
 ROOT_CHANNELS = "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"
 JOINT_CHANNELS = "CHANNELS 3 Zrotation Xrotation Yrotation"
+
+MOVING_JOINT_M = 1e-6
+"""A joint whose offset from its parent strays more than this (1 micrometre) from its rest offset
+during the clip gets position channels."""
 
 DECIMALS = 6
 """Digits after the point: 1e-6 cm and 1e-6 degrees."""
@@ -60,10 +67,11 @@ def bvh_text(clip: Clip) -> str:
             hint="export the scene to .glb or .usd instead, or simulate one animal for BVH",
         )
     track = clip.animals[0]  # roles run parents first: bone 0 is the root
+    moving = moving_joints(track)
     lines = ["HIERARCHY"]
-    _write_joint(track, 0, 0, lines)
+    _write_joint(track, 0, 0, moving, lines)
     lines += ["MOTION", f"Frames: {track.positions.shape[0]}", f"Frame Time: {1.0 / clip.fps:.8f}"]
-    lines += [_numbers(row) for row in motion_rows(track)]
+    lines += [_numbers(row) for row in motion_rows(track, moving)]
     return "\n".join(lines) + "\n"
 
 
@@ -72,7 +80,15 @@ def _numbers(values: np.ndarray) -> str:
     return " ".join(f"{v:.{DECIMALS}f}" for v in np.round(values, DECIMALS) + 0.0)
 
 
-def _write_joint(track: AnimalTrack, index: int, depth: int, lines: list[str]) -> None:
+def moving_joints(track: AnimalTrack) -> np.ndarray:
+    """(B,) whether each joint needs position channels: the root, and the joints whose offset
+    from their parent changes (by more than `MOVING_JOINT_M`)."""
+    translations, _ = local_poses(track)
+    strays = np.abs(translations - rest_offsets(track)).max(axis=(0, 2), initial=0.0)
+    return (track.parents < 0) | (strays > MOVING_JOINT_M)
+
+
+def _write_joint(track: AnimalTrack, index: int, depth: int, moving: np.ndarray, lines: list[str]) -> None:
     """Append the HIERARCHY block of joint `index` and, recursively, of its children."""
     pad = INDENT * depth
     offset = to_y_up(rest_offsets(track)[index]) * CM_PER_M
@@ -81,11 +97,11 @@ def _write_joint(track: AnimalTrack, index: int, depth: int, lines: list[str]) -
         f"{pad}{'ROOT' if root else 'JOINT'} {track.roles[index]}",
         f"{pad}{{",
         f"{pad}{INDENT}OFFSET {_numbers(offset)}",
-        f"{pad}{INDENT}{ROOT_CHANNELS if root else JOINT_CHANNELS}",
+        f"{pad}{INDENT}{ROOT_CHANNELS if moving[index] else JOINT_CHANNELS}",
     ]
     children = np.flatnonzero(track.parents == index)
     for child in children:
-        _write_joint(track, int(child), depth + 1, lines)
+        _write_joint(track, int(child), depth + 1, moving, lines)
     if children.size == 0:
         end = to_y_up(track.rest_end[index] - track.rest_start[index]) * CM_PER_M
         lines += [
@@ -110,14 +126,19 @@ def hierarchy_order(track: AnimalTrack) -> list[int]:
     return order
 
 
-def motion_rows(track: AnimalTrack) -> np.ndarray:
-    """(F, 3 + 3B) channel values per frame, joints in hierarchy order."""
+def motion_rows(track: AnimalTrack, moving: np.ndarray) -> np.ndarray:
+    """(F, C) channel values per frame, joints in hierarchy order: each joint's position (the
+    root's and the `moving` ones') then its angles."""
     translations, rotations = local_poses(track)
     angles = zxy_euler_degrees(to_matrix(quat_to_y_up(rotations)))
     angles = np.degrees(np.unwrap(np.radians(angles), axis=0))
-    order = hierarchy_order(track)
-    root = to_y_up(translations[:, order[0]]) * CM_PER_M
-    return np.concatenate([root, angles[:, order].reshape(len(angles), -1)], axis=1)
+    positions = to_y_up(translations) * CM_PER_M
+    columns = []
+    for index in hierarchy_order(track):
+        if moving[index]:
+            columns.append(positions[:, index])
+        columns.append(angles[:, index])
+    return np.concatenate(columns, axis=1)
 
 
 def export_bvh(clip: Clip, path: Path) -> None:
