@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from quadpipe.anatomy.rig import _shares
+from quadpipe.anatomy.skeleton import UNIT_TO_METRES
 from quadpipe.clip.retarget import on_rig
 from quadpipe.exporters.npz import load_clip
 from quadpipe.importers import load_skeleton, read_raw_skeleton
@@ -25,6 +26,8 @@ from tests.test_exporters import needs_node, node_matrices, read_gltf, run_node,
 RIGS = FIXTURES / "rigs_out"
 RIG = RIGS / "dog_short.bvh"
 ROLE_MAP = RIGS / "dog_short_roles.yaml"
+ZUP_RIG = RIGS / "dog_short_zup_mm.bvh"
+ZUP_ROLE_MAP = RIGS / "dog_short_zup_mm_roles.yaml"
 
 POSITION_TOLERANCE_HP = 1e-4
 """Joint positions read back from a baked file match the simulation to 1e-4 pelvis heights."""
@@ -216,14 +219,16 @@ def bvh_world_positions(path: Path) -> tuple[list[str], list[int], np.ndarray]:
     return names, parents, world_position
 
 
-def expected_positions(track) -> np.ndarray:
+def expected_positions(track, rig_file: Path = RIG) -> np.ndarray:
     """(F, J, 3) where each rig joint should be: a mapped joint at its first role's simulated
-    joint; an extra bone rigidly on its parent's bone at its rest offset."""
+    joint; an extra bone rigidly on its parent's bone at its rest offset (read from `rig_file`,
+    in the units and axes its binding says)."""
     rig = track.rig
     role = {name: index for index, name in enumerate(track.roles)}
     names = [joint.name for joint in rig.joints]
-    raw = {joint.name: joint for joint in read_raw_skeleton(RIG).joints}
-    at_rest = {name: Y_UP.T @ np.array(raw[name].position) * 0.01 for name in names}  # the file: cm, y up
+    raw = {joint.name: joint for joint in read_raw_skeleton(rig_file).joints}
+    scale = UNIT_TO_METRES[rig.units]
+    at_rest = {name: rig.axes @ np.array(raw[name].position) * scale for name in names}
     positions = np.zeros((track.positions.shape[0], len(names), 3))
     drive: dict[str, str] = {}
     for index, joint in enumerate(rig.joints):
@@ -304,3 +309,37 @@ def test_skeleton_roles_keeps_the_39_roles(cli, tmp_path):
     assert result.returncode == 0, result.stderr
     names = [name for name, _ in rig_hierarchy(tmp_path / "roles.bvh")]
     assert len(names) == 39 and "lf_scapula" in names and "Jaw" not in names
+
+
+def test_a_rig_in_other_units_and_axes_is_written_in_them(cli, tmp_path):
+    """The z-up millimetre rig comes back z-up in millimetres, following the simulation."""
+    result = cli(
+        "bake",
+        "-a",
+        str(ZUP_RIG),
+        "--roles",
+        str(ZUP_ROLE_MAP),
+        "-c",
+        "rigid",
+        "-s",
+        "0.5",
+        "-o",
+        "zup.bvh",
+        "-o",
+        "zup.npz",
+        cwd=tmp_path,
+    )
+    assert result.returncode == 0, result.stderr
+    track = load_clip(tmp_path / "zup.npz").animals[0]
+    track.rig = load_skeleton(ZUP_RIG, ZUP_ROLE_MAP).rig
+    assert track.rig.units == "mm"
+    np.testing.assert_allclose(track.rig.axes, [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]], atol=1e-12)
+    source, written = read_raw_skeleton(ZUP_RIG), read_raw_skeleton(tmp_path / "zup.bvh")
+    shift = np.array(written.joints[0].position) - source.joints[0].position
+    assert shift[:2] == pytest.approx([0.0, 0.0]) and shift[2] > 0.0  # lifted onto the floor, along +Z
+    for before, after in zip(source.joints, written.joints):
+        np.testing.assert_allclose(np.array(after.position) - before.position, shift, atol=1e-3)  # mm
+    _, _, world = bvh_world_positions(tmp_path / "zup.bvh")
+    body = world * UNIT_TO_METRES["mm"] @ track.rig.axes.T
+    error = np.abs(body - expected_positions(track, ZUP_RIG)).max() / track.pelvis_height
+    assert error < POSITION_TOLERANCE_HP, f"{error:.2e} HP"

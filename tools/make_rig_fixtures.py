@@ -3,7 +3,9 @@
 `dog_short.bvh` is the dog (configs/skeletons/dog.xml) as an animator's rig would have it:
 two spine bones, two neck bones, two tail bones, three-bone legs with no scapula and no toes
 (each foot ends at an End Site on the toe tip), and extra bones the model does not need: a
-jaw and two ears. `dog_short_roles.yaml` maps it in nine lines. Deterministic: the same
+jaw and two ears. `dog_short_roles.yaml` maps it in nine lines. `dog_short_zup_mm.bvh` is the
+same rig as a z-up tool in millimetres would save it (+X the animal's right, +Y forward), with
+its role map saying so. Deterministic: the same
 skeleton gives the same bytes. Usage: `python tools/make_rig_fixtures.py [OUTPUT_FOLDER]`.
 """
 
@@ -32,6 +34,10 @@ roles:
   "*_Thigh": [hip, knee, ankle]
 """
 """The rig's role map: nine lines (scapulae and toes are synthesised, jaw and ears are extras)."""
+
+ZUP_MM = np.array([[-10.0, 0.0, 0.0], [0.0, 0.0, 10.0], [0.0, 10.0, 0.0]])
+"""From the dog file's axes (cm; +X left, +Y up, +Z forward) to the z-up file's (mm; +X right,
++Y forward, +Z up): a proper rotation, scaled."""
 
 ROOT_CHANNELS = "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"
 JOINT_CHANNELS = "CHANNELS 3 Zrotation Xrotation Yrotation"
@@ -77,6 +83,14 @@ def dog_short() -> Joint:
     return hips
 
 
+def transformed(joint: Joint, matrix: np.ndarray) -> Joint:
+    """A copy of a rig with every point multiplied by `matrix`."""
+    end = None if joint.end is None else matrix @ joint.end
+    copy = Joint(joint.name, matrix @ joint.position, end)
+    copy.children = [transformed(child, matrix) for child in joint.children]
+    return copy
+
+
 def numbers(values: np.ndarray) -> str:
     """Coordinates with four decimals, never -0.0000."""
     return " ".join(f"{v:.4f}" for v in np.round(values, 4) + 0.0)
@@ -114,6 +128,8 @@ def main(out: Path = OUT) -> None:
     out.mkdir(parents=True, exist_ok=True)
     (out / "dog_short.bvh").write_text(bvh_text(dog_short()))
     (out / "dog_short_roles.yaml").write_text(ROLE_MAP)
+    (out / "dog_short_zup_mm.bvh").write_text(bvh_text(transformed(dog_short(), ZUP_MM)))
+    (out / "dog_short_zup_mm_roles.yaml").write_text("units: mm\nup: z\n" + ROLE_MAP)
 
 
 if __name__ == "__main__":

@@ -84,7 +84,8 @@ class AnimalTrack:
         foot_contacts: (F, 4) booleans, legs in `quadpipe.anatomy.roles.LEGS` order.
         body: its skinned body mesh, None to draw the bones' shapes (see `quadpipe.bodies`).
         rig: the source rig's own joints, when the animal came from a rig that is not simply
-            the 39 roles; exporters write the motion onto them (`quadpipe.clip.retarget`).
+            the 39 roles; exporters write the motion onto them (`quadpipe.clip.retarget`). A
+            track already on them has the rig's joint names as its `roles`.
     """
 
     name: str

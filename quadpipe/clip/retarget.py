@@ -27,13 +27,14 @@ def on_rigs(clip: Clip) -> Clip:
 
 
 def on_rig(track: AnimalTrack) -> AnimalTrack:
-    """A track of roles as a track of its rig's own joints (the track itself when it has no rig).
+    """A track of roles as a track of its rig's own joints (the track itself when it has no rig
+    or is on it already). The result keeps the binding, which says the rig file's units and axes.
 
     Each rig joint j riding on role r at offset d (body frame, rest pose) is at
     `p_r(t) + R_r(t) d` with orientation `R_r(t)`; its rest position is `rest_r + d`.
     """
     binding = track.rig
-    if binding is None:
+    if binding is None or track.roles == binding.names:
         return track
     role_index = {role: index for index, role in enumerate(track.roles)}
     names = binding.names
@@ -54,7 +55,6 @@ def on_rig(track: AnimalTrack) -> AnimalTrack:
         positions=track.positions[:, drive] + rotate(rotations, offsets),
         rotations=rotations,
         body=None if track.body is None else _reskinned(track.body, carrier),
-        rig=None,
     )
 
 

@@ -13,6 +13,8 @@ handedness is kept), lengths in **centimetres** (quadpipe's BVH importer reads c
 - A joint whose offset from its parent changes during the clip (on a rig whose one bone
   carries a bending chain of roles, see `quadpipe.clip.retarget`) has the root's six channels,
   its position channels holding that offset; every other joint keeps its fixed OFFSET.
+- An animal written on its rig's own joints (`quadpipe.clip.retarget`) keeps the rig file's
+  units and axes instead (a z-up rig in millimetres comes back z-up in millimetres).
 - `End Site` under each leaf bone (head, tail tip, toes) at the bone's end.
 - `Frame Time` = 1 / fps. Angles are unwrapped frame to frame (no 360-degree jumps).
 
@@ -26,7 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from quadpipe.clip.kinematics import local_poses, quat_to_y_up, rest_offsets, to_matrix, to_y_up
+from quadpipe.anatomy.skeleton import UNIT_TO_METRES
+from quadpipe.clip.kinematics import Y_UP_AXES, local_poses, rest_offsets, to_matrix
 from quadpipe.clip.model import AnimalTrack, Clip
 from quadpipe.core.atomic import write_text
 from quadpipe.core.errors import QuadpipeError
@@ -80,6 +83,15 @@ def _numbers(values: np.ndarray) -> str:
     return " ".join(f"{v:.{DECIMALS}f}" for v in np.round(values, DECIMALS) + 0.0)
 
 
+def file_frame(track: AnimalTrack) -> tuple[np.ndarray, float]:
+    """Rows taking quadpipe's frame to the file's axes, and file units per metre: the rig's own
+    units and axes for a track on a rig's joints, else y up in centimetres."""
+    rig = track.rig
+    if rig is not None and track.roles == rig.names:
+        return rig.axes.T, 1.0 / UNIT_TO_METRES[rig.units]
+    return Y_UP_AXES, CM_PER_M
+
+
 def moving_joints(track: AnimalTrack) -> np.ndarray:
     """(B,) whether each joint needs position channels: the root, and the joints whose offset
     from their parent changes (by more than `MOVING_JOINT_M`)."""
@@ -91,7 +103,8 @@ def moving_joints(track: AnimalTrack) -> np.ndarray:
 def _write_joint(track: AnimalTrack, index: int, depth: int, moving: np.ndarray, lines: list[str]) -> None:
     """Append the HIERARCHY block of joint `index` and, recursively, of its children."""
     pad = INDENT * depth
-    offset = to_y_up(rest_offsets(track)[index]) * CM_PER_M
+    axes, per_metre = file_frame(track)
+    offset = axes @ rest_offsets(track)[index] * per_metre
     root = track.parents[index] < 0
     lines += [
         f"{pad}{'ROOT' if root else 'JOINT'} {track.roles[index]}",
@@ -103,7 +116,7 @@ def _write_joint(track: AnimalTrack, index: int, depth: int, moving: np.ndarray,
     for child in children:
         _write_joint(track, int(child), depth + 1, moving, lines)
     if children.size == 0:
-        end = to_y_up(track.rest_end[index] - track.rest_start[index]) * CM_PER_M
+        end = axes @ (track.rest_end[index] - track.rest_start[index]) * per_metre
         lines += [
             f"{pad}{INDENT}End Site",
             f"{pad}{INDENT}{{",
@@ -130,9 +143,11 @@ def motion_rows(track: AnimalTrack, moving: np.ndarray) -> np.ndarray:
     """(F, C) channel values per frame, joints in hierarchy order: each joint's position (the
     root's and the `moving` ones') then its angles."""
     translations, rotations = local_poses(track)
-    angles = zxy_euler_degrees(to_matrix(quat_to_y_up(rotations)))
+    axes, per_metre = file_frame(track)
+    in_file = np.concatenate([rotations[..., :1], rotations[..., 1:] @ axes.T], axis=-1)  # a proper rotation
+    angles = zxy_euler_degrees(to_matrix(in_file))
     angles = np.degrees(np.unwrap(np.radians(angles), axis=0))
-    positions = to_y_up(translations) * CM_PER_M
+    positions = translations @ axes.T * per_metre
     columns = []
     for index in hierarchy_order(track):
         if moving[index]:
