@@ -343,3 +343,16 @@ def test_a_rig_in_other_units_and_axes_is_written_in_them(cli, tmp_path):
     body = world * UNIT_TO_METRES["mm"] @ track.rig.axes.T
     error = np.abs(body - expected_positions(track, ZUP_RIG)).max() / track.pelvis_height
     assert error < POSITION_TOLERANCE_HP, f"{error:.2e} HP"
+
+
+def test_a_rig_with_spaces_in_its_names_bakes_to_valid_usd(cli, tmp_path):
+    """A Biped-style rig (`Bip01 L Thigh`): USD joint paths are made valid, jointNames keep the names."""
+    from pxr import Usd, UsdSkel
+
+    rig = FIXTURES / "skeletons" / "reference.bvh"
+    result = cli("bake", "-a", str(rig), "-c", "rigid", "-s", "0.1", "--look", "bones", "-o", "ref.usda", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    stage = Usd.Stage.Open(str(tmp_path / "ref.usda"))
+    skeleton = next(UsdSkel.Skeleton(p) for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton))
+    assert list(skeleton.GetJointNamesAttr().Get()) == [name for name, _ in rig_hierarchy(rig)]
+    assert usd_errors(tmp_path / "ref.usda") == []

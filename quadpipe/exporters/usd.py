@@ -93,10 +93,14 @@ class _UniqueNames:
 
 
 def joint_paths(track: AnimalTrack) -> list[str]:
-    """Each bone's joint path in the Skeleton: its ancestors' roles and its own, joined by '/'."""
+    """Each bone's joint path in the Skeleton: its ancestors' names and its own, joined by '/',
+    each made a valid, unique identifier (a rig's `Bip01 Pelvis` -> `Bip01_Pelvis`; roles are
+    already; `jointNames` keeps the names as they are)."""
+    names = _UniqueNames()
     paths: list[str] = []
     for role, parent in zip(track.roles, track.parents):
-        paths.append(role if parent < 0 else f"{paths[parent]}/{role}")
+        token = names.take(role)
+        paths.append(token if parent < 0 else f"{paths[parent]}/{token}")
     return paths
 
 
@@ -121,7 +125,8 @@ def _add_animal(stage: Usd.Stage, path: str, track: AnimalTrack) -> None:
 
     UsdSkel.Root.Define(stage, path)
     skeleton = UsdSkel.Skeleton.Define(stage, f"{path}/skeleton")
-    joints = Vt.TokenArray(joint_paths(track))
+    paths = joint_paths(track)
+    joints = Vt.TokenArray(paths)
     skeleton.CreateJointsAttr(joints)
     skeleton.CreateJointNamesAttr(Vt.TokenArray(list(track.roles)))
     skeleton.CreateBindTransformsAttr(_translation_matrices(track.rest_start))
@@ -142,10 +147,10 @@ def _add_animal(stage: Usd.Stage, path: str, track: AnimalTrack) -> None:
         _add_body(stage, f"{path}/body", track.body, skeleton)
         return
     UsdGeom.Xform.Define(stage, f"{path}/meshes")
-    for index, (role, shapes) in enumerate(zip(track.roles, track.shapes)):
+    for index, shapes in enumerate(track.shapes):
         if shapes:
             mesh = shapes_mesh(shapes).translated(track.rest_start[index])
-            _bind_rigidly(_add_mesh(stage, f"{path}/meshes/{role}", mesh), skeleton, index)
+            _bind_rigidly(_add_mesh(stage, f"{path}/meshes/{paths[index].rpartition('/')[2]}", mesh), skeleton, index)
 
 
 def _add_body(stage: Usd.Stage, path: str, body: BodyMesh, skeleton: UsdSkel.Skeleton) -> None:
