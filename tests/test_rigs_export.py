@@ -356,3 +356,61 @@ def test_a_rig_with_spaces_in_its_names_bakes_to_valid_usd(cli, tmp_path):
     skeleton = next(UsdSkel.Skeleton(p) for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton))
     assert list(skeleton.GetJointNamesAttr().Get()) == [name for name, _ in rig_hierarchy(rig)]
     assert usd_errors(tmp_path / "ref.usda") == []
+
+
+# -- bind poses that point along the bones (built-in animals too) ---------------------------
+
+
+@pytest.fixture(scope="module")
+def dog_files(tmp_path_factory) -> dict[str, Path]:
+    from quadpipe.exporters import export_clip
+    from tests.clips import dog_clip
+
+    folder = tmp_path_factory.mktemp("bind")
+    return {suffix: export_clip(dog_clip(), folder / f"dog{suffix}", look="bones") for suffix in (".glb", ".usda")}
+
+
+def bone_directions(track) -> np.ndarray:
+    """(B, 3) unit vectors from each joint to its bone's end, quadpipe's frame."""
+    directions = track.rest_end - track.rest_start
+    return directions / np.linalg.norm(directions, axis=-1, keepdims=True)
+
+
+def test_gltf_joints_point_along_their_bones_at_rest(dog_files):
+    track = dog_clip_track()
+    document, binary = read_gltf(dog_files[".glb"])
+    skin = document["skins"][0]
+    inverse_bind = accessor_matrices(document, binary, skin["inverseBindMatrices"])
+    bind = np.linalg.inv(inverse_bind)
+    np.testing.assert_allclose(bind[:, :3, 1] @ Y_UP, bone_directions(track), atol=1e-6)  # local +Y
+    document.pop("animations")  # the nodes' own transforms are the bind pose Blender builds bones from
+    rest = node_matrices(document, binary, 1)[0, skin["joints"]]
+    np.testing.assert_allclose(rest, bind, atol=1e-6)
+
+
+def test_usd_joints_point_along_their_bones_at_rest(dog_files):
+    from pxr import Usd, UsdSkel
+
+    track = dog_clip_track()
+    stage = Usd.Stage.Open(str(dog_files[".usda"]))
+    skeleton = UsdSkel.Skeleton(stage.GetPrimAtPath("/World/dog/skeleton"))
+    bind = np.array(skeleton.GetBindTransformsAttr().Get())  # row vectors: row 1 is the image of +Y
+    np.testing.assert_allclose(bind[:, 1, :3], bone_directions(track), atol=1e-6)
+    rest = np.array(skeleton.GetRestTransformsAttr().Get())
+    world = np.zeros_like(rest)
+    for joint, parent in enumerate(track.parents):
+        world[joint] = rest[joint] if parent < 0 else rest[joint] @ world[parent]
+    np.testing.assert_allclose(world, bind, atol=1e-6)
+
+
+def dog_clip_track():
+    from tests.clips import dog_clip
+
+    return dog_clip().animals[0]
+
+
+def accessor_matrices(document: dict, binary: bytes, index: int) -> np.ndarray:
+    """(N, 4, 4) matrices of a MAT4 accessor (glTF stores them column-major)."""
+    from tests.test_exporters import accessor
+
+    return accessor(document, binary, index).reshape(-1, 4, 4).transpose(0, 2, 1).astype(float)

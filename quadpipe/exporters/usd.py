@@ -29,7 +29,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from quadpipe.clip.kinematics import continuous, local_poses, normalize, rest_offsets
+from quadpipe.clip.bind import USD_BONE_AXIS, bound_poses
+from quadpipe.clip.kinematics import continuous, normalize
 from quadpipe.clip.meshes import TriangleMesh, shape_mesh, shapes_mesh
 from quadpipe.clip.model import AnimalTrack, BodyMesh, Clip, PropTrack
 from quadpipe.core.atomic import atomic_path, scratch_path
@@ -104,10 +105,14 @@ def joint_paths(track: AnimalTrack) -> list[str]:
     return paths
 
 
-def _translation_matrices(translations: np.ndarray) -> list:
+def _transform_matrices(rotations: np.ndarray, translations: np.ndarray) -> list:
+    """Gf matrices of rotations (w, x, y, z) then translations."""
     from pxr import Gf
 
-    return [Gf.Matrix4d(1.0).SetTranslate(Gf.Vec3d(*map(float, t))) for t in translations]
+    return [
+        Gf.Matrix4d(1.0).SetTransform(Gf.Rotation(Gf.Quatd(*map(float, q))), Gf.Vec3d(*map(float, t)))
+        for q, t in zip(rotations, translations)
+    ]
 
 
 def _quatf_array(quats: np.ndarray) -> Vt.QuatfArray:
@@ -129,17 +134,17 @@ def _add_animal(stage: Usd.Stage, path: str, track: AnimalTrack) -> None:
     joints = Vt.TokenArray(paths)
     skeleton.CreateJointsAttr(joints)
     skeleton.CreateJointNamesAttr(Vt.TokenArray(list(track.roles)))
-    skeleton.CreateBindTransformsAttr(_translation_matrices(track.rest_start))
-    skeleton.CreateRestTransformsAttr(_translation_matrices(rest_offsets(track)))
+    poses = bound_poses(track, USD_BONE_AXIS)  # each joint's local +Y along its bone at rest
+    skeleton.CreateBindTransformsAttr(_transform_matrices(poses.bind, track.rest_start))
+    skeleton.CreateRestTransformsAttr(_transform_matrices(poses.rest_rotations, poses.rest_translations))
 
     animation = UsdSkel.Animation.Define(stage, f"{path}/animation")
     animation.CreateJointsAttr(joints)
-    translations, rotations = local_poses(track)
     translation_attr = animation.CreateTranslationsAttr()
     rotation_attr = animation.CreateRotationsAttr()
     for frame in range(track.positions.shape[0]):
-        translation_attr.Set(Vt.Vec3fArray.FromNumpy(translations[frame].astype(np.float32)), frame)
-        rotation_attr.Set(_quatf_array(rotations[frame]), frame)
+        translation_attr.Set(Vt.Vec3fArray.FromNumpy(poses.translations[frame].astype(np.float32)), frame)
+        rotation_attr.Set(_quatf_array(poses.rotations[frame]), frame)
     animation.CreateScalesAttr(Vt.Vec3hArray.FromNumpy(np.ones((len(track.roles), 3), dtype=np.float16)))
     UsdSkel.BindingAPI.Apply(skeleton.GetPrim()).CreateAnimationSourceRel().SetTargets([animation.GetPath()])
 
