@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from quadpipe.anatomy.rig import _shares
+from quadpipe.anatomy.rig import chain_shares
 from quadpipe.anatomy.skeleton import UNIT_TO_METRES
 from quadpipe.clip.retarget import on_rig
 from quadpipe.exporters.npz import load_clip
@@ -116,7 +116,7 @@ def test_the_rig_imports_with_chains_synthesised_roles_and_extras():
     [([2.0, 1.0], 3, [2, 1]), ([1.0, 1.0], 5, [3, 2]), ([1.0, 3.0, 1.0], 3, [1, 1, 1]), ([1.0, 1.0], 1, [1])],
 )
 def test_a_chain_gives_its_longest_bones_the_extra_roles(lengths, count, shares):
-    assert _shares(lengths, count) == shares
+    assert chain_shares(lengths, count) == shares
 
 
 def test_a_built_in_skeleton_has_no_rig_to_write_back():

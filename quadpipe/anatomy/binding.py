@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class RigJoint:
     """One joint of the source rig and how it moves with the model.
 
@@ -36,9 +36,9 @@ class RigJoint:
     line: int | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class RigBinding:
-    """A rig's own joints and the roles they follow.
+    """A rig's own joints and the roles they follow (compared by identity: it holds arrays).
 
     Attributes:
         source: the skeleton file.

@@ -179,7 +179,7 @@ class _Expander:
             points.append(self.chain_end(path[-1]))
         lengths = [float(np.linalg.norm(b - a)) for a, b in zip(points, points[1:])]
         roles = iter(chain)
-        for index, (rig_joint, count) in enumerate(zip(path, _shares(lengths, len(chain)))):
+        for index, (rig_joint, count) in enumerate(zip(path, chain_shares(lengths, len(chain)))):
             self.add(self.records[rig_joint.name], next(roles), rig_joint.name, insert=False)
             previous = rig_joint.name
             for part in range(1, count):
@@ -284,7 +284,7 @@ def _point(vector: np.ndarray) -> Vector:
     return float(vector[0]), float(vector[1]), float(vector[2])
 
 
-def _shares(lengths: list[float], count: int) -> list[int]:
+def chain_shares(lengths: list[float], count: int) -> list[int]:
     """Roles per bone of a chain: one each, and each further role to the bone whose pieces are
     longest (with fewer roles than bones, the first bones take one each)."""
     if count <= len(lengths) or not lengths:
