@@ -414,3 +414,15 @@ def accessor_matrices(document: dict, binary: bytes, index: int) -> np.ndarray:
     from tests.test_exporters import accessor
 
     return accessor(document, binary, index).reshape(-1, 4, 4).transpose(0, 2, 1).astype(float)
+
+
+def test_every_misplaced_role_is_reported_at_once(tmp_path):
+    from quadpipe.core.errors import QuadpipeError
+
+    swapped = tmp_path / "swapped_roles.yaml"
+    swapped.write_text(ROLE_MAP.read_text().replace("[hip, knee, ankle]", "[knee, hip, ankle]"))
+    with pytest.raises(QuadpipeError) as caught:
+        load_skeleton(RIG, swapped)
+    wrong = [issue for issue in caught.value.issues if issue.code == "wrong-parent"]
+    assert len(wrong) == len(caught.value.issues) == 6  # hip, knee and ankle of both hind legs
+    assert {issue.message.split("(role ")[1].split(")")[0] for issue in wrong} >= {"lh_hip", "rh_knee"}

@@ -23,7 +23,15 @@ import numpy as np
 
 from quadpipe.anatomy.binding import RigBinding, RigJoint
 from quadpipe.anatomy.roles import FRONT_CHAIN, HIND_CHAIN, LEGS, ROLES, leg_chain
-from quadpipe.anatomy.skeleton import UP_AXES, JointRecord, RawSkeleton, Skeleton, assemble, body_frame
+from quadpipe.anatomy.skeleton import (
+    UP_AXES,
+    JointRecord,
+    RawSkeleton,
+    Skeleton,
+    assemble,
+    body_frame,
+    check_structure,
+)
 from quadpipe.core.errors import Issue, QuadpipeError
 
 RoleValue = str | tuple[str, ...]
@@ -76,6 +84,7 @@ def assemble_rig(raw: RawSkeleton, role_of: Mapping[str, RoleValue]) -> Skeleton
     Raises:
         QuadpipeError: what `assemble` raises, and `missing-end` for a chain with no end.
     """
+    check_structure(raw)
     expansion = expand(raw, role_of)
     expanded = replace(raw, joints=expansion.joints)
     skeleton = assemble(expanded, expansion.roles)

@@ -25,10 +25,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from fnmatch import fnmatchcase
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator
 
 from quadpipe.anatomy.rig import LEG_KINDS, RoleValue, roles_in
 from quadpipe.anatomy.role_guess import RoleGuess, guess_roles
@@ -36,7 +36,7 @@ from quadpipe.anatomy.role_names import short_name, unknown_role_hint
 from quadpipe.anatomy.roles import PARENT, ROLES
 from quadpipe.anatomy.skeleton import UNIT_TO_METRES, UP_AXES, RawSkeleton, check_structure
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
-from quadpipe.core.yamlio import load_yaml, validate_document
+from quadpipe.core.yamlio import described_value, load_yaml, validate_document
 
 GLOB_CHARACTERS = "*?["
 """Characters that make a role-map key a pattern rather than a plain name."""
@@ -47,6 +47,22 @@ SHOWN_JOINTS = 5
 # -- role map files -------------------------------------------------------------------------
 
 
+def _role_entry(value: object) -> object:
+    """A role map's value as written, refused in plain words unless it is a role (text), a list
+    of roles, or null (checked before pydantic tries each kind, which would report each)."""
+    if value is None or isinstance(value, str):
+        return value
+    if isinstance(value, list) and value and all(isinstance(item, str) for item in value):
+        return value
+    if isinstance(value, list):
+        raise ValueError(f"a chain of roles must be a non-empty list of roles (text), not {described_value(value)}")
+    raise ValueError(f"must be text, not {described_value(value)}")
+
+
+RoleEntry = Annotated[str | list[str] | None, BeforeValidator(_role_entry)]
+"""One value of a role map's `roles`: a role, a chain of roles, or null."""
+
+
 class RoleMapModel(BaseModel):
     """Schema of a role map YAML file."""
 
@@ -54,7 +70,7 @@ class RoleMapModel(BaseModel):
 
     units: str | None = Field(None, description="Length unit of the skeleton file: m, cm, mm, in or ft.")
     up: str | None = Field(None, description="Up axis of the skeleton file: y or z.")
-    roles: dict[str, str | list[str] | None] | None = Field(
+    roles: dict[str, RoleEntry] | None = Field(
         None,
         description="Joint name or shell glob (case-insensitive) -> role, or a list of roles spread over the "
         "joint's bone and the unmapped bones below it; a leg role without its leg (`elbow`) takes the "
