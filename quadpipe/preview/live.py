@@ -124,7 +124,7 @@ class LivePreview(Preview):
     """An animal simulated live under a controller, its files watched for edits.
 
     Args:
-        animal: animal name or config path.
+        animal: animal name, config or skeleton file, or an `AnimalSource` (a skeleton file with its options).
         controller: controller name or YAML path.
         scene: scene name or YAML path (None: `flat`).
         parameters: controller parameter overrides (values as written in YAML).
