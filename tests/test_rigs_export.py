@@ -4,7 +4,9 @@ animal, walks, and bakes back onto its own joints.
 The rig is tests/fixtures/rigs_out/dog_short.bvh (made by tools/make_rig_fixtures.py from the
 built-in dog): 2 spine, 2 neck and 2 tail bones, 3-bone legs without scapulae or toes, and a
 jaw and two ears. It is baked once, through the command line, to BVH, glTF, USD and npz; the
-npz keeps the 39 roles, so the rig files are checked against the simulation itself.
+npz keeps the 39 roles, so the rig files are checked against the simulation itself. The same
+rig as Maya saves it (`dog_short.ma`, end joints included) and as a z-up tool in millimetres
+saves it (`dog_short_zup_mm.bvh`) are baked too, shorter.
 """
 
 from __future__ import annotations
@@ -426,3 +428,31 @@ def test_every_misplaced_role_is_reported_at_once(tmp_path):
     wrong = [issue for issue in caught.value.issues if issue.code == "wrong-parent"]
     assert len(wrong) == len(caught.value.issues) == 6  # hip, knee and ankle of both hind legs
     assert {issue.message.split("(role ")[1].split(")")[0] for issue in wrong} >= {"lh_hip", "rh_knee"}
+
+
+def test_the_maya_rig_is_an_animal_and_bakes_onto_its_own_joints(cli, tmp_path):
+    """`-a dog_short.ma`: the same rig as Maya saves it, end joints included, baked to BVH and glTF."""
+    rig = RIGS / "dog_short.ma"
+    result = cli(
+        "bake",
+        "-a",
+        str(rig),
+        "--roles",
+        str(ROLE_MAP),
+        "--mass",
+        "30",
+        "-c",
+        "walk",
+        "-s",
+        "1",
+        "-o",
+        "ma.bvh",
+        "-o",
+        "ma.glb",
+        cwd=tmp_path,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "dog_short: 33 joints (12 extra), HP 65.6 cm, mass 30 kg" in result.stdout
+    assert rig_hierarchy(tmp_path / "ma.bvh") == rig_hierarchy(rig)  # end joints included
+    document, _ = read_gltf(tmp_path / "ma.glb")
+    assert {name for name, _ in rig_hierarchy(rig)} <= {node["name"] for node in document["nodes"]}

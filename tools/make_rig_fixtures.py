@@ -5,7 +5,8 @@ two spine bones, two neck bones, two tail bones, three-bone legs with no scapula
 (each foot ends at an End Site on the toe tip), and extra bones the model does not need: a
 jaw and two ears. `dog_short_roles.yaml` maps it in nine lines. `dog_short_zup_mm.bvh` is the
 same rig as a z-up tool in millimetres would save it (+X the animal's right, +Y forward), with
-its role map saying so. Deterministic: the same
+its role map saying so. `dog_short.ma` is the same rig saved by Maya: joints with local
+translations, an end joint (`<joint>_end`) where each leaf bone ends. Deterministic: the same
 skeleton gives the same bytes. Usage: `python tools/make_rig_fixtures.py [OUTPUT_FOLDER]`.
 """
 
@@ -123,11 +124,35 @@ def bvh_text(root: Joint) -> str:
     return "\n".join(lines) + "\n"
 
 
+def ma_text(root: Joint) -> str:
+    """A Maya ASCII file of the rig: a joint per rig joint (local `.t`, cm), end joints for the
+    End Sites, listed first under their joint (the bone's end is its first child)."""
+    lines = ["//Maya ASCII 2020 scene", "//Name: dog_short.ma", 'requires maya "2020";']
+    lines.append("currentUnit -l centimeter -a degree -t film;")
+
+    def write(joint: Joint, parent: Joint | None) -> None:
+        where = f' -p "{parent.name}"' if parent is not None else ""
+        local = joint.position - (parent.position if parent is not None else 0.0)
+        lines.extend(
+            [f'createNode joint -n "{joint.name}"{where};', f'\tsetAttr ".t" -type "double3" {numbers(local)} ;']
+        )
+        if joint.end is not None:
+            end = joint.end - joint.position
+            lines.append(f'createNode joint -n "{joint.name}_end" -p "{joint.name}";')
+            lines.append(f'\tsetAttr ".t" -type "double3" {numbers(end)} ;')
+        for child in joint.children:
+            write(child, joint)
+
+    write(root, None)
+    return "\n".join(lines) + "\n"
+
+
 def main(out: Path = OUT) -> None:
     """Write the fixtures into `out`."""
     out.mkdir(parents=True, exist_ok=True)
     (out / "dog_short.bvh").write_text(bvh_text(dog_short()))
     (out / "dog_short_roles.yaml").write_text(ROLE_MAP)
+    (out / "dog_short.ma").write_text(ma_text(dog_short()))
     (out / "dog_short_zup_mm.bvh").write_text(bvh_text(transformed(dog_short(), ZUP_MM)))
     (out / "dog_short_zup_mm_roles.yaml").write_text("units: mm\nup: z\n" + ROLE_MAP)
 

@@ -430,7 +430,8 @@ def _unplaced_warning(raw: RawSkeleton, unplaced: list[str]) -> tuple[Issue, ...
             "unplaced-joints",
             f"{len(unplaced)} joint(s) have no role and are left out: {shown}",
             raw.where(),
-            "map them in a role map (--roles) if they should be bones; end sites need nothing",
+            "map them in a role map (--roles) if they should be bones; end sites need nothing; "
+            "baked onto the rig (bake --skeleton rig), they ride on their parent",
             severity="warning",
         ),
     )
