@@ -13,6 +13,7 @@ from quadpipe.cli.options import FormatOpt, LimitsOpt, MassOpt, OutputFormat, Re
 from quadpipe.cli.output import print_table, print_warnings
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.animals.model import BuiltAnimal
 
 
@@ -21,6 +22,22 @@ MJCF_SUFFIXES = (".xml", ".mjcf")
 
 ROLE_MAP_SUFFIXES = (".yaml", ".yml")
 """Suffixes of the role maps `roles -o` writes."""
+
+
+def announce_animal(source: AnimalSource) -> None:
+    """Before simulating a skeleton file: its warnings and notes (synthesised roles, the mass
+    rule), and one line with its joints, pelvis height and the mass used. Nothing for an
+    animal name or config."""
+    from quadpipe.animals.library import load_animal
+    from quadpipe.importers import skeleton_readers
+
+    if Path(source.source).suffix.lower() not in skeleton_readers():
+        return
+    animal = load_animal(source)
+    print_warnings(animal.warnings)
+    rig = animal.skeleton.rig
+    joints = "the 39 roles" if rig is None else f"{len(rig.joints)} joints ({len(rig.extras)} extra)"
+    typer.echo(f"{animal.name}: {joints}, HP {animal.pelvis_height * 100:.1f} cm, mass {animal.mass_kg:.3g} kg")
 
 
 def built_animal(

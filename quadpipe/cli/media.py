@@ -12,12 +12,16 @@ from quadpipe.cli.options import (
     AnimalOpt,
     ControllerOpt,
     FormatOpt,
+    LimitsOpt,
     Look,
     LookOpt,
+    MassOpt,
     OutputFormat,
+    RolesOpt,
     SceneOpt,
     SecondsOpt,
     SetOpt,
+    animal_source,
     look_name,
     parameter_places,
     parse_parameters,
@@ -39,6 +43,9 @@ def render(
     height: Annotated[int, typer.Option(help="Frame height in pixels.")] = 480,
     overlays: Annotated[str, typer.Option(help="Overlays to draw: contacts,trail or none.")] = "contacts,trail",
     look: LookOpt = Look.body,
+    limits: LimitsOpt = None,
+    roles: RolesOpt = None,
+    mass: MassOpt = None,
 ) -> None:
     """Render a clip headless (MuJoCo's renderer) to MP4, GIF, or a PNG contact sheet.
 
@@ -58,10 +65,13 @@ def render(
 
         baked = load_clip(clip)
     else:
+        from quadpipe.cli.library import announce_animal
         from quadpipe.sim.simulation import simulate as run_simulation
 
+        source = animal_source(animal, limits, roles, mass)
+        announce_animal(source)
         baked = run_simulation(
-            animal,
+            source,
             controller,
             seconds=seconds,
             scene=scene,

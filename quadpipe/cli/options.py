@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.bodies import Look as LookName
     from quadpipe.core.errors import Location
 
@@ -64,7 +65,34 @@ MassOpt = Annotated[
     float | None, typer.Option("--mass", callback=_sane_mass, help="Body mass in kg for a bare skeleton.")
 ]
 
-AnimalOpt = Annotated[str, typer.Option("--animal", "-a", help="Animal name or config file.")]
+AnimalOpt = Annotated[
+    str, typer.Option("--animal", "-a", help="Animal name or config file, or a skeleton file (.ma, .bvh, .xml).")
+]
+
+
+class Skeleton(str, Enum):
+    """Which joints a bake writes (`quadpipe.exporters.SkeletonChoice`)."""
+
+    rig = "rig"
+    roles = "roles"
+
+
+SkeletonOpt = Annotated[
+    Skeleton,
+    typer.Option(
+        "--skeleton",
+        help="Write an imported rig's own joints (names, hierarchy, extra bones) or the 39 roles (glTF, USD, BVH).",
+    ),
+]
+
+
+def animal_source(animal: str, limits: Path | None, roles: Path | None, mass: float | None) -> AnimalSource:
+    """`-a` with the options that complete a skeleton file (refused, when loaded, for an animal name)."""
+    from quadpipe.animals.library import AnimalSource
+
+    return AnimalSource(animal, limits, roles, mass)
+
+
 ControllerOpt = Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")]
 SceneOpt = Annotated[str, typer.Option("--scene", help="Scene name or file: terrain, props, throws, goals.")]
 SecondsOpt = Annotated[float, typer.Option("--seconds", "-s", help="Simulated time.")]

@@ -14,12 +14,18 @@ from quadpipe.cli.options import (
     DiagramOpt,
     FpsOpt,
     GaitReportOpt,
+    LimitsOpt,
     Look,
     LookOpt,
+    MassOpt,
     MetricsOpt,
+    RolesOpt,
     SceneOpt,
     SecondsOpt,
     SetOpt,
+    Skeleton,
+    SkeletonOpt,
+    animal_source,
     look_name,
     parameter_places,
     parse_parameters,
@@ -27,7 +33,9 @@ from quadpipe.cli.options import (
 from quadpipe.cli.output import print_warnings, write_gait_files
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.bodies import Look as LookName
+    from quadpipe.exporters import SkeletonChoice
     from quadpipe.preview.base import Preview
 
 
@@ -45,13 +53,30 @@ def simulate(
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
     look: LookOpt = Look.body,
+    limits: LimitsOpt = None,
+    roles: RolesOpt = None,
+    mass: MassOpt = None,
+    skeleton: SkeletonOpt = Skeleton.rig,
 ) -> None:
     """Simulate an animal under a controller and write the clip and its metrics.
 
     Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png
+    |   quadpipe simulate -a rig.bvh --roles rig_roles.yaml --mass 25 -c walk -o rig_walk.bvh
     """
+    source = animal_source(animal, limits, roles, mass)
     _bake_and_report(
-        animal, controller, scene, seconds, [output], metrics, parameters, fps, gait_report, diagram, look_name(look)
+        source,
+        controller,
+        scene,
+        seconds,
+        [output],
+        metrics,
+        parameters,
+        fps,
+        gait_report,
+        diagram,
+        look_name(look),
+        skeleton.value,
     )
 
 
@@ -67,19 +92,36 @@ def bake(
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
     look: LookOpt = Look.body,
+    limits: LimitsOpt = None,
+    roles: RolesOpt = None,
+    mass: MassOpt = None,
+    skeleton: SkeletonOpt = Skeleton.rig,
 ) -> None:
     """Simulate once and bake the motion into every requested file; the suffix picks the format.
 
-    Formats: .glb .gltf (glTF 2.0), .usda .usdc .usdz (OpenUSD), .bvh, .npz (raw clip).
+    Formats: .glb .gltf (glTF 2.0), .usda .usdc .usdz (OpenUSD), .bvh, .npz (raw clip). A skeleton
+    file (-a rig.ma --roles rig_roles.yaml) is baked onto its own joints (--skeleton roles: the 39 roles).
     Example: quadpipe bake --animal horse --controller trot --scene hill -o horse.glb -o horse.usdc --gait-report horse.gait.json
     """
+    source = animal_source(animal, limits, roles, mass)
     _bake_and_report(
-        animal, controller, scene, seconds, outputs, metrics, parameters, fps, gait_report, diagram, look_name(look)
+        source,
+        controller,
+        scene,
+        seconds,
+        outputs,
+        metrics,
+        parameters,
+        fps,
+        gait_report,
+        diagram,
+        look_name(look),
+        skeleton.value,
     )
 
 
 def _bake_and_report(
-    animal: str,
+    animal: AnimalSource,
     controller: str,
     scene: str,
     seconds: float,
@@ -90,17 +132,21 @@ def _bake_and_report(
     gait_report: Path | None,
     diagram: Path | None,
     look: LookName,
+    skeleton: SkeletonChoice,
 ) -> None:
     """`simulate` and `bake`: check every output path first, bake, print the figures, write the gait
-    files: every file, or none (they are renamed into place together at the end)."""
+    files: every file, or none (they are renamed into place together at the end). A skeleton
+    file's notes and mass are printed first (`announce_animal`)."""
     from quadpipe.batch.bake import METRICS_SUFFIX, bake
+    from quadpipe.cli.library import announce_animal
     from quadpipe.core.atomic import transaction
     from quadpipe.core.limits import check_run
 
     check_run(seconds, fps, names=("--seconds", "--fps"))
     metrics_path = metrics or outputs[0].with_suffix(METRICS_SUFFIX)
     metrics_named = ("--metrics", metrics) if metrics else ("the default --metrics", metrics_path)
-    _check_bake_outputs(outputs, metrics_named, gait_report, diagram, [animal, controller, scene])
+    _check_bake_outputs(outputs, metrics_named, gait_report, diagram, [str(animal), controller, scene])
+    announce_animal(animal)
     with transaction():
         result = bake(
             animal,
@@ -113,6 +159,7 @@ def _bake_and_report(
             places=parameter_places(parameters),
             fps=fps,
             look=look,
+            skeleton=skeleton,
         )
         print_warnings(result.warnings)
         typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
@@ -217,6 +264,9 @@ def preview(
     controller: ControllerOpt = "spine_walk",
     scene: SceneOpt = "flat",
     parameters: SetOpt = None,
+    limits: LimitsOpt = None,
+    roles: RolesOpt = None,
+    mass: MassOpt = None,
 ) -> None:
     """Open a window: watch the animal simulate live while you edit its controller (saved edits reload), or replay a clip.
 
@@ -235,7 +285,8 @@ def preview(
     else:
         from quadpipe.preview import LivePreview
 
-        model = LivePreview(animal, controller, scene, parse_parameters(parameters), parameter_places(parameters))
+        source = animal_source(animal, limits, roles, mass)
+        model = LivePreview(source, controller, scene, parse_parameters(parameters), parameter_places(parameters))
         title = f"quadpipe preview: {animal} / {controller} / {scene}"
     check_display()
     open_window(model, title)

@@ -18,6 +18,8 @@ from typing import Literal
 
 import numpy as np
 
+from quadpipe.anatomy.binding import RigBinding
+
 ShapeKind = Literal["capsule", "box", "sphere", "plane"]
 
 
@@ -81,6 +83,9 @@ class AnimalTrack:
         mass_kg: body mass.
         foot_contacts: (F, 4) booleans, legs in `quadpipe.anatomy.roles.LEGS` order.
         body: its skinned body mesh, None to draw the bones' shapes (see `quadpipe.bodies`).
+        rig: the source rig's own joints, when the animal came from a rig that is not simply
+            the 39 roles; exporters write the motion onto them (`quadpipe.clip.retarget`). A
+            track already on them has the rig's joint names as its `roles`.
     """
 
     name: str
@@ -96,6 +101,7 @@ class AnimalTrack:
     mass_kg: float
     foot_contacts: np.ndarray
     body: BodyMesh | None = None
+    rig: RigBinding | None = None
 
 
 @dataclass

@@ -122,6 +122,7 @@ GROUPS: tuple[CodeGroup, ...] = (
             "no-forward": "the thorax straight above the pelvis, so the body has no forward direction",
             "mirrored-legs": "a left leg on the animal's right side, or the reverse",
             "unplaced-joints": "(warning) joints with no role, left out of the model",
+            "synthesised-roles": "(note) roles the rig has no bone for, made from its neighbours (scapula, toes)",
             "ambiguous-pattern": "a role map pattern that gives one role to several joints",
             "unused-pattern": "(warning) a role map pattern that matches no joint",
             "guessed-chain": "(warning) roles guessed with joints skipped in a chain",
@@ -149,6 +150,7 @@ GROUPS: tuple[CodeGroup, ...] = (
         "Animal configs (`configs/animals/*.yaml`): a skeleton, limits and sizes.",
         {
             "hp-mismatch": "(warning) the skeleton's pelvis height differs from the config's",
+            "default-mass": "(note) the mass a skeleton file without --mass is given, by the mammal body-size rule",
             "gait-not-in-repertoire": "(warning) a gait controller run on an animal whose species does not use that gait",
             "mixed-repertoires": "the animals of one run offer different gait settings to their one controller",
         },

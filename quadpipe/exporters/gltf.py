@@ -28,7 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from quadpipe.clip.kinematics import continuous, local_poses, normalize, quat_to_y_up, rest_offsets, to_y_up
+from quadpipe.clip.bind import GLTF_BONE_AXIS, bound_poses
+from quadpipe.clip.kinematics import continuous, normalize, quat_to_y_up, to_matrix, to_y_up
 from quadpipe.clip.meshes import TriangleMesh, merge, shape_mesh, shapes_mesh
 from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
 from quadpipe.core.atomic import transaction, write_bytes
@@ -201,29 +202,37 @@ def _primitive(
 
 
 def _add_animal(doc: _Document, track: AnimalTrack, prefix: str) -> None:
-    """An animal's joint nodes, skinned mesh, skin and animation channels (bone 0 is the root)."""
-    offsets = to_y_up(rest_offsets(track))
+    """An animal's joint nodes, skinned mesh, skin and animation channels (bone 0 is the root).
+    Each joint's local +Y points along its bone at rest (`quadpipe.clip.bind`)."""
+    poses = bound_poses(track, GLTF_BONE_AXIS)
+    offsets = to_y_up(poses.rest_translations)
+    turns = _xyzw(quat_to_y_up(poses.rest_rotations))
     first = len(doc.json["nodes"]) + 1
     joints = [first + index for index in range(len(track.roles))]
     doc.node({"name": track.name, "children": [joints[r] for r in np.flatnonzero(track.parents < 0)]}, root=True)
     for index, role in enumerate(track.roles):
         children = [joints[c] for c in np.flatnonzero(track.parents == index)]
-        node = {"name": prefix + role, "translation": [float(v) for v in offsets[index]]}
+        node = {
+            "name": prefix + role,
+            "translation": [float(v) for v in offsets[index]],
+            "rotation": [float(v) for v in turns[index]],
+        }
         if children:
             node["children"] = children
         doc.node(node)
 
-    translations, rotations = local_poses(track)
     for index, joint in enumerate(joints):
-        doc.animate(joint, "translation", to_y_up(translations[:, index]))
-        doc.animate(joint, "rotation", _xyzw(quat_to_y_up(rotations[:, index])))
+        doc.animate(joint, "translation", to_y_up(poses.translations[:, index]))
+        doc.animate(joint, "rotation", _xyzw(quat_to_y_up(poses.rotations[:, index])))
 
     primitive = _body_primitive(doc, track) if track.body is not None else _bones_primitive(doc, track)
     if primitive is None:
         return
     mesh = doc.add("meshes", {"name": track.name, "primitives": [primitive]})
     inverse_bind = np.tile(np.eye(4), (len(joints), 1, 1))
-    inverse_bind[:, :3, 3] = -to_y_up(track.rest_start)
+    unturn = to_matrix(quat_to_y_up(poses.bind)).transpose(0, 2, 1)
+    inverse_bind[:, :3, :3] = unturn
+    inverse_bind[:, :3, 3] = -np.einsum("bij,bj->bi", unturn, to_y_up(track.rest_start))
     skin = {
         "name": track.name,
         "inverseBindMatrices": doc.accessor(inverse_bind.transpose(0, 2, 1).reshape(-1, 16), FLOAT),

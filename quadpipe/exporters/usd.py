@@ -36,7 +36,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from quadpipe.clip.kinematics import continuous, local_poses, normalize, rest_offsets
+from quadpipe.clip.bind import USD_BONE_AXIS, bound_poses
+from quadpipe.clip.kinematics import continuous, normalize
 from quadpipe.clip.meshes import TriangleMesh, shape_mesh, shapes_mesh
 from quadpipe.clip.model import AnimalTrack, BodyMesh, Clip, PropTrack
 from quadpipe.core.atomic import atomic_path, scratch_path
@@ -117,17 +118,25 @@ class _UniqueNames:
 
 
 def joint_paths(track: AnimalTrack) -> list[str]:
-    """Each bone's joint path in the Skeleton: its ancestors' roles and its own, joined by '/'."""
+    """Each bone's joint path in the Skeleton: its ancestors' names and its own, joined by '/',
+    each made a valid, unique identifier (a rig's `Bip01 Pelvis` -> `Bip01_Pelvis`; roles are
+    already; `jointNames` keeps the names as they are)."""
+    names = _UniqueNames()
     paths: list[str] = []
     for role, parent in zip(track.roles, track.parents):
-        paths.append(role if parent < 0 else f"{paths[parent]}/{role}")
+        token = names.take(role)
+        paths.append(token if parent < 0 else f"{paths[parent]}/{token}")
     return paths
 
 
-def _translation_matrices(translations: np.ndarray) -> list:
+def _transform_matrices(rotations: np.ndarray, translations: np.ndarray) -> list:
+    """Gf matrices of rotations (w, x, y, z) then translations."""
     from pxr import Gf
 
-    return [Gf.Matrix4d(1.0).SetTranslate(Gf.Vec3d(*map(float, t))) for t in translations]
+    return [
+        Gf.Matrix4d(1.0).SetTransform(Gf.Rotation(Gf.Quatd(*map(float, q))), Gf.Vec3d(*map(float, t)))
+        for q, t in zip(rotations, translations)
+    ]
 
 
 def _quatf_array(quats: np.ndarray) -> Vt.QuatfArray:
@@ -145,20 +154,21 @@ def _add_animal(stage: Usd.Stage, path: str, track: AnimalTrack) -> None:
 
     name = path.rpartition("/")[2]
     skeleton = UsdSkel.Skeleton.Define(stage, path)
-    joints = Vt.TokenArray(joint_paths(track))
+    paths = joint_paths(track)
+    joints = Vt.TokenArray(paths)
     skeleton.CreateJointsAttr(joints)
     skeleton.CreateJointNamesAttr(Vt.TokenArray(list(track.roles)))
-    skeleton.CreateBindTransformsAttr(_translation_matrices(track.rest_start))
-    skeleton.CreateRestTransformsAttr(_translation_matrices(rest_offsets(track)))
+    poses = bound_poses(track, USD_BONE_AXIS)  # each joint's local +Y along its bone at rest
+    skeleton.CreateBindTransformsAttr(_transform_matrices(poses.bind, track.rest_start))
+    skeleton.CreateRestTransformsAttr(_transform_matrices(poses.rest_rotations, poses.rest_translations))
 
     animation = UsdSkel.Animation.Define(stage, f"{path}/animation")
     animation.CreateJointsAttr(joints)
-    translations, rotations = local_poses(track)
     translation_attr = animation.CreateTranslationsAttr()
     rotation_attr = animation.CreateRotationsAttr()
     for frame in range(track.positions.shape[0]):
-        translation_attr.Set(Vt.Vec3fArray.FromNumpy(translations[frame].astype(np.float32)), frame)
-        rotation_attr.Set(_quatf_array(rotations[frame]), frame)
+        translation_attr.Set(Vt.Vec3fArray.FromNumpy(poses.translations[frame].astype(np.float32)), frame)
+        rotation_attr.Set(_quatf_array(poses.rotations[frame]), frame)
     animation.CreateScalesAttr(Vt.Vec3hArray.FromNumpy(np.ones((len(track.roles), 3), dtype=np.float16)))
     UsdSkel.BindingAPI.Apply(skeleton.GetPrim()).CreateAnimationSourceRel().SetTargets([animation.GetPath()])
 
@@ -166,10 +176,10 @@ def _add_animal(stage: Usd.Stage, path: str, track: AnimalTrack) -> None:
         _add_body(stage, f"{path}/{name}{BODY_SUFFIX}", track.body, skeleton)
         return
     UsdGeom.Xform.Define(stage, f"{path}/meshes")
-    for index, (role, shapes) in enumerate(zip(track.roles, track.shapes)):
+    for index, shapes in enumerate(track.shapes):
         if shapes:
             mesh = shapes_mesh(shapes).translated(track.rest_start[index])
-            bone = _add_mesh(stage, f"{path}/meshes/{role}", mesh, look=f"{name}_bones")
+            bone = _add_mesh(stage, f"{path}/meshes/{paths[index].rpartition('/')[2]}", mesh, look=f"{name}_bones")
             _bind_rigidly(bone, skeleton, index)
 
 

@@ -15,9 +15,10 @@ from pathlib import Path
 
 from quadpipe.anatomy.anatomy_check import check_anatomy
 from quadpipe.anatomy.limits import JointLimits
+from quadpipe.anatomy.rig import assemble_rig
 from quadpipe.anatomy.role_guess import RoleGuess, guess_roles
 from quadpipe.anatomy.rolemap import resolve_roles, write_role_map
-from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble, check_coordinates, reroot
+from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, check_coordinates, reroot
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.formats import FileFormat, FormatTable
 from quadpipe.core.textfiles import missing_file
@@ -108,8 +109,9 @@ def load_skeleton(
         units: the file's length unit, for formats that do not declare one (BVH).
 
     Returns:
-        The skeleton; its warnings include the reader's, the role map's unused patterns
-        and guessed chains that skipped joints.
+        The skeleton; its warnings include the role map's unused patterns and guessed
+        chains that skipped joints. A rig whose joints are not simply the 39 roles (chains,
+        synthesised roles, extra bones: `quadpipe.anatomy.rig`) comes with its `rig` binding.
 
     Raises:
         QuadpipeError: a bad file or role map, or roles that could not be placed or fail
@@ -117,12 +119,13 @@ def load_skeleton(
     """
     raw = read_raw_skeleton(path, rest_frame=rest_frame, units=units)
     resolution = resolve_roles(raw, role_map)
-    roles = {j.name: j.role for j in resolution.raw.joints if j.role} | resolution.roles
+    first_roles = {name: role if isinstance(role, str) else role[0] for name, role in resolution.roles.items()}
+    roles = {j.name: j.role for j in resolution.raw.joints if j.role} | first_roles  # a chain starts at its joint
     problems = check_anatomy(resolution.raw, roles)
     if problems:
         raise QuadpipeError(problems)
     pelvis = next(name for name, role in roles.items() if role == "pelvis")
-    skeleton = assemble(reroot(resolution.raw, pelvis), resolution.roles)
+    skeleton = assemble_rig(reroot(resolution.raw, pelvis), resolution.roles)
     reader_warnings = tuple(
         w for w in raw.warnings if not (w.code == "bvh-units-guessed" and resolution.raw.units != raw.units)
     )

@@ -161,4 +161,5 @@ class Recorder:
             pelvis_height=placement.built.animal.pelvis_height,
             mass_kg=placement.built.animal.mass_kg,
             foot_contacts=contacts[:, index * len(LEGS) : (index + 1) * len(LEGS)],
+            rig=skeleton.rig,
         )

@@ -29,6 +29,7 @@ from quadpipe.sim.recording import Recorder
 from quadpipe.world.placement import Placement
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.controllers.language.compiler import CompiledController
     from quadpipe.controllers.runtime.runtime import ControllerRuntime
     from quadpipe.world import SceneSetup
@@ -126,7 +127,7 @@ class Simulation:
     @classmethod
     def build(
         cls,
-        animal: str,
+        animal: str | AnimalSource,
         controller: str | None,
         *,
         scene: str | None = None,
@@ -137,7 +138,7 @@ class Simulation:
         """An animal (and the scene's other animals) under a controller, in a scene, at t = 0.
 
         Args:
-            animal: animal name or config path.
+            animal: animal name, config or skeleton file, or an `AnimalSource` (a skeleton file with its options).
             controller: controller name or path (None: a passive ragdoll).
             scene: scene name or path (None: `flat`).
             parameters: controller parameter overrides (YAML values: "2 HP", "[1, 0, 0]").
@@ -343,7 +344,7 @@ class Result:
 
 
 def simulate(
-    animal: str,
+    animal: str | AnimalSource,
     controller: str | None,
     *,
     seconds: float,
@@ -357,7 +358,7 @@ def simulate(
     """Build an animal (and scene), run a controller on it, and return the clip and its metrics.
 
     Args:
-        animal: animal name or config path.
+        animal: animal name, config or skeleton file, or an `AnimalSource` (a skeleton file with its options).
         controller: controller name or path (None: a passive ragdoll).
         seconds: simulated time.
         scene: scene name or path (None: `flat`).
