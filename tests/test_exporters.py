@@ -564,7 +564,7 @@ def test_usd_quaternions_are_stored_real_part_first(clip, written):
     frame = clip.frame_count - 1
     root = animation.GetRotationsAttr().Get(frame)[0]
     stored = np.array([root.GetReal(), *root.GetImaginary()])
-    turn = UsdSkel.Skeleton(stage.GetPrimAtPath("/World/dog/skeleton")).GetBindTransformsAttr().Get()[0]
+    turn = UsdSkel.Skeleton(stage.GetPrimAtPath("/World/animals/dog")).GetBindTransformsAttr().Get()[0]
     bind = turn.ExtractRotationQuat()
     expected = multiply(clip.animals[0].rotations[frame, 0], np.array([bind.GetReal(), *bind.GetImaginary()]))
     np.testing.assert_allclose(stored * np.sign(stored @ expected), expected, atol=1e-6)

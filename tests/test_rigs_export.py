@@ -395,7 +395,7 @@ def test_usd_joints_point_along_their_bones_at_rest(dog_files):
 
     track = dog_clip_track()
     stage = Usd.Stage.Open(str(dog_files[".usda"]))
-    skeleton = UsdSkel.Skeleton(stage.GetPrimAtPath("/World/dog/skeleton"))
+    skeleton = UsdSkel.Skeleton(stage.GetPrimAtPath("/World/animals/dog"))
     bind = np.array(skeleton.GetBindTransformsAttr().Get())  # row vectors: row 1 is the image of +Y
     np.testing.assert_allclose(bind[:, 1, :3], bone_directions(track), atol=1e-6)
     rest = np.array(skeleton.GetRestTransformsAttr().Get())

@@ -77,9 +77,12 @@ class Expansion:
     synthesised: tuple[str, ...]
 
 
-def assemble_rig(raw: RawSkeleton, role_of: Mapping[str, RoleValue]) -> Skeleton:
+def assemble_rig(raw: RawSkeleton, role_of: Mapping[str, RoleValue], file_raw: RawSkeleton | None = None) -> Skeleton:
     """`assemble` for a rig of any joint count: expand chains and synthesise missing roles
     first, then bind the rig's own joints to the assembled bones.
+
+    `raw` is rooted at the pelvis; `file_raw` is the same joints as the file has them (its
+    own root and hierarchy, which the binding and so the baked clip keep; default `raw`).
 
     Raises:
         QuadpipeError: what `assemble` raises, and `missing-end` for a chain with no end.
@@ -89,7 +92,7 @@ def assemble_rig(raw: RawSkeleton, role_of: Mapping[str, RoleValue]) -> Skeleton
     expanded = replace(raw, joints=expansion.joints)
     skeleton = assemble(expanded, expansion.roles)
     notes = _synthesis_notes(raw, expansion)
-    binding = make_binding(raw, expansion, skeleton)
+    binding = make_binding(file_raw or raw, expansion, skeleton)
     return replace(skeleton, warnings=skeleton.warnings + notes, rig=binding)
 
 

@@ -125,7 +125,7 @@ def load_skeleton(
     if problems:
         raise QuadpipeError(problems)
     pelvis = next(name for name, role in roles.items() if role == "pelvis")
-    skeleton = assemble_rig(reroot(resolution.raw, pelvis), resolution.roles)
+    skeleton = assemble_rig(reroot(resolution.raw, pelvis), resolution.roles, file_raw=resolution.raw)
     reader_warnings = tuple(
         w for w in raw.warnings if not (w.code == "bvh-units-guessed" and resolution.raw.units != raw.units)
     )
