@@ -35,6 +35,7 @@ from quadpipe.quantities.fields import (
     quantities,
     quantity,
 )
+from quadpipe.world.set_format import TerrainMesh
 
 SCHEMA_VERSION = 1
 """The only `schema:` version this quadpipe reads."""
@@ -192,49 +193,7 @@ class TerrainBox(_Model):
     euler: Annotated[quantity(ANGLES), Field([0, 0, 0], description=described(EULER_TEXT, ANGLES))]
 
 
-MAX_SET_RESOLUTION = 2048
-"""Most height-field samples along a set's longer side (a 2048 x 2048 field is 4 M samples)."""
-
-
-class TerrainMesh(_Model):
-    """The animator's set: a mesh file, sampled into a height field (see docs/scenes.md, Sets)."""
-
-    type: Annotated[Literal["mesh"], Field(description="Terrain type.")]
-    file: Annotated[
-        str,
-        Field(
-            min_length=1,
-            description="The set's mesh, relative to this scene file: `.obj`, `.ply`, `.glb`/`.gltf`, `.usd`/`.usda`/`.usdc`/`.usdz`. It is placed as it is (its own transform is the identity).",
-        ),
-    ]
-    scale: Annotated[
-        float,
-        Field(
-            1.0,
-            gt=0,
-            allow_inf_nan=False,
-            description="Metres per unit of the file (0.01 for a set in centimetres); a USD stage's `metersPerUnit` multiplies it.",
-        ),
-    ]
-    up: Annotated[
-        Literal["y", "z"] | None,
-        Field(
-            None,
-            description="The file's up axis. `y`: the file's x is quadpipe's left, y up, z forward (as the .glb and .bvh exports); `z`: the file's axes are quadpipe's (as the .usd export). Default: y for glTF and OBJ, z for PLY, a USD stage's `upAxis`.",
-        ),
-    ]
-    resolution: Annotated[
-        int,
-        Field(
-            512,
-            ge=2,
-            le=MAX_SET_RESOLUTION,
-            description="Height-field samples along the set's longer side (the cell is that side / (resolution - 1)).",
-        ),
-    ]
-
-
-TERRAIN_TYPES: dict[str, type[_Model]] = {
+TERRAIN_TYPES: dict[str, type[BaseModel]] = {
     "slope": Slope,
     "hill": Hill,
     "stairs": Stairs,
@@ -535,7 +494,7 @@ class SceneFile(_Model):
     ]
 
 
-TAGGED_LISTS: dict[str, tuple[Callable[[dict[str, Any]], str | None], dict[str, type[_Model]], str]] = {
+TAGGED_LISTS: dict[str, tuple[Callable[[dict[str, Any]], str | None], dict[str, type[BaseModel]], str]] = {
     "terrain": (lambda item: item.get("type"), TERRAIN_TYPES, "terrain"),
     "props": (lambda item: "prop", {"prop": Prop}, "prop"),
     "throws": (_throw_tag, {"throw": Throw, "random": ThrowSeries}, "throw"),

@@ -31,11 +31,11 @@ from quadpipe.world.format import (
     AnimalGrid,
     SceneFile,
     Stairs,
-    TerrainMesh,
     ThrowSeries,
     is_zero,
     iter_quantities,
 )
+from quadpipe.world.set_format import TerrainMesh
 
 SCENE_KIND = "scenes"
 """The config folder of scenes (see `quadpipe.core.configs`)."""

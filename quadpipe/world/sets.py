@@ -30,6 +30,7 @@ from quadpipe.clip.kinematics import Y_UP_AXES
 from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.limits import MAX_SET_TRIANGLES
 from quadpipe.core.textfiles import missing_file
+from quadpipe.world.set_format import MAX_SET_RESOLUTION
 
 SET_FORMATS: dict[str, str] = {
     ".obj": "obj",
@@ -93,7 +94,8 @@ class HeightGrid:
 def set_issue(path: Path, shown: str, where: Location) -> Issue | None:
     """The issue of a set file that is not there or not in a readable format; None when it may be read."""
     if not path.is_file():
-        issue = missing_file(path, "set", name=shown, where=where, suffixes=SET_FORMATS)
+        hint = f"the path is relative to the scene file's folder: {path.parent}"
+        issue = missing_file(path, "set", name=shown, where=where, suffixes=SET_FORMATS, hint=hint)
         return Issue(issue.code, f"{issue.message} (relative to this scene)", issue.where, issue.hint)
     if path.suffix.lower() not in SET_FORMATS:
         return Issue(
@@ -105,7 +107,9 @@ def set_issue(path: Path, shown: str, where: Location) -> Issue | None:
     return None
 
 
-def height_grid(path: Path, shown: str, where: Location, scale: float, up: str | None, resolution: int) -> HeightGrid:
+def height_grid(
+    path: Path, shown: str, where: Location, scale: float, up: str | None, resolution: int | None
+) -> HeightGrid:
     """A set file sampled into a height field (cached by file, date and settings).
 
     Args:
@@ -114,7 +118,7 @@ def height_grid(path: Path, shown: str, where: Location, scale: float, up: str |
         where: where the scene names it.
         scale: metres per unit of the file (times a USD stage's `metersPerUnit`).
         up: the file's up axis, `y` or `z`; None for its format's (`DEFAULT_UP`, or USD's `upAxis`).
-        resolution: samples along the footprint's longer side.
+        resolution: samples along the footprint's longer side; None: the set's own detail.
 
     Raises:
         QuadpipeError: a missing, unreadable, empty or too big set, at `where`.
@@ -128,7 +132,14 @@ def height_grid(path: Path, shown: str, where: Location, scale: float, up: str |
 
 @functools.lru_cache(maxsize=8)
 def _cached_grid(
-    path: str, _mtime: int, _size: int, shown: str, where: Location, scale: float, up: str | None, resolution: int
+    path: str,
+    _mtime: int,
+    _size: int,
+    shown: str,
+    where: Location,
+    scale: float,
+    up: str | None,
+    resolution: int | None,
 ) -> HeightGrid:
     return sample_grid(read_set(Path(path), shown, where, scale, up), resolution, shown, where)
 
@@ -151,7 +162,7 @@ def read_set(path: Path, shown: str, where: Location, scale: float = 1.0, up: st
     except Exception as exc:  # noqa: BLE001  # any reader failure is the file's fault, reported at it
         raise QuadpipeError.single(
             "set-unreadable",
-            f"set file {shown!r} cannot be read as {kind.upper()}: {str(exc).strip() or type(exc).__name__}",
+            f"set file {shown!r} cannot be read as {kind.upper()}: {_reason(exc)}",
             where=where,
             hint="open it in the tool that made it and export it again",
         ) from exc
@@ -168,6 +179,19 @@ def read_set(path: Path, shown: str, where: Location, scale: float = 1.0, up: st
             hint="export the ground's mesh (faces, not only points or lines)",
         )
     return SetMesh(triangles)
+
+
+REASON_CHARACTERS = 200
+"""Longest reader message quoted in a `set-unreadable` error."""
+
+
+def _reason(exc: Exception) -> str:
+    """A reader's complaint in one line: its first line, without USD's `Error in '<function>' at
+    line N in file <source> : '...'` wrapping."""
+    line = next((text.strip() for text in str(exc).splitlines() if text.strip()), type(exc).__name__)
+    if " : '" in line:
+        line = line.split(" : '", 1)[1].rstrip("'")
+    return line[:REASON_CHARACTERS]
 
 
 def _trimesh_triangles(path: Path) -> tuple[np.ndarray, np.ndarray, str | None, float]:
@@ -222,8 +246,9 @@ def _fan(counts: Any, indices: Any) -> np.ndarray:
     ).reshape(-1, 3)
 
 
-def sample_grid(mesh: SetMesh, resolution: int, shown: str, where: Location) -> HeightGrid:
-    """The set's top surface sampled on a grid of `resolution` samples along its longer side.
+def sample_grid(mesh: SetMesh, resolution: int | None, shown: str, where: Location) -> HeightGrid:
+    """The set's top surface sampled on a grid of `resolution` samples along its longer side
+    (None: `default_resolution`).
 
     Samples no triangle covers (outside an irregular footprint) take the set's lowest height.
 
@@ -232,9 +257,9 @@ def sample_grid(mesh: SetMesh, resolution: int, shown: str, where: Location) -> 
     """
     lows, highs = mesh.triangles[..., :2].min(axis=(0, 1)), mesh.triangles[..., :2].max(axis=(0, 1))
     extent = highs - lows
-    cell = float(extent.max()) / (resolution - 1)
-    if not cell > 0:
+    if not extent.max() > 0:
         raise _flat_footprint(shown, where)
+    cell = float(extent.max()) / ((resolution or default_resolution(mesh, float(extent.max()))) - 1)
     columns, rows = (np.ceil(extent / cell - 1e-9).astype(int) + 1).tolist()
     xs, ys = lows[0] + cell * np.arange(columns), lows[1] + cell * np.arange(rows)
     heights = np.full((rows, columns), -np.inf)
@@ -245,6 +270,15 @@ def sample_grid(mesh: SetMesh, resolution: int, shown: str, where: Location) -> 
         raise _flat_footprint(shown, where)
     heights[~covered] = heights[covered].min()
     return HeightGrid((float(lows[0]), float(lows[1])), cell, heights)
+
+
+def default_resolution(mesh: SetMesh, side: float) -> int:
+    """Samples along a set's longer side (`side`, metres) for a cell as long as the median edge of
+    its triangles seen from above: the detail the set carries, and no finer (each cell edge of a
+    height field is a seam where MuJoCo's contacts can tilt), within 2 to `MAX_SET_RESOLUTION`."""
+    edges = np.linalg.norm(mesh.triangles[:, :, :2] - np.roll(mesh.triangles[:, :, :2], 1, axis=1), axis=-1)
+    edge = float(np.median(edges[edges > 0])) if (edges > 0).any() else side
+    return int(np.clip(np.ceil(side / edge - 1e-9) + 1, 2, MAX_SET_RESOLUTION))
 
 
 def _flat_footprint(shown: str, where: Location) -> QuadpipeError:

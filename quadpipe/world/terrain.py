@@ -11,9 +11,10 @@ import mujoco
 import numpy as np
 
 from quadpipe.animals.model import FRICTION
-from quadpipe.world.format import Hill, Slope, Stairs, TerrainBox, TerrainMesh
+from quadpipe.world.format import Hill, Slope, Stairs, TerrainBox
 from quadpipe.world.loading import SceneSpec, set_path
 from quadpipe.world.placement import WORLD_CONAFFINITY, WORLD_CONTYPE, euler_quat
+from quadpipe.world.set_format import TerrainMesh
 from quadpipe.world.values import Values
 
 RAMP_BASE_HP = 0.1
