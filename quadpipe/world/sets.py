@@ -94,7 +94,7 @@ class HeightGrid:
 def set_issue(path: Path, shown: str, where: Location) -> Issue | None:
     """The issue of a set file that is not there or not in a readable format; None when it may be read."""
     if not path.is_file():
-        hint = f"the path is relative to the scene file's folder: {path.parent}"
+        hint = f"the path is relative to the scene file's folder, {path.parent.resolve()}"
         issue = missing_file(path, "set", name=shown, where=where, suffixes=SET_FORMATS, hint=hint)
         return Issue(issue.code, f"{issue.message} (relative to this scene)", issue.where, issue.hint)
     if path.suffix.lower() not in SET_FORMATS:
