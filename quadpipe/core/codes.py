@@ -222,6 +222,9 @@ GROUPS: tuple[CodeGroup, ...] = (
             "unknown-animal-ref": "a throw or goal naming an animal that is not in the scene",
             "animal-count": "a number of animals given that does not fill the scene's animals without a species",
             "throw-out-of-reach": "a throw too slow to reach its target from its direction",
+            "set-format": "a set file (`terrain: [{type: mesh}]`) whose suffix is not a mesh format quadpipe reads (OBJ, PLY, glTF/GLB, USD)",
+            "set-unreadable": "a set file that cannot be read as the mesh format its suffix says, or holds coordinates that are not finite",
+            "set-empty": "a set file holding no triangles, or none that cover ground seen from above",
         },
     ),
     CodeGroup(

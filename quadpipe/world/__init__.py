@@ -14,9 +14,11 @@ scene works for a rat and an elephant: `HP`, `bw` and `bm` are those of the scen
 Modules, lowest first: `placement` (floor, light, animals lifted onto the ground; collision
 bits: world geoms contype 1 / conaffinity 3, bones contype 2 / conaffinity 1), `format` (the
 pydantic models of scene files), `loading`, `values` (quantities evaluated for the animals'
-size), `terrain`, `props`, `throws`, `goals`, `build`, `schema` (and `generate`, which
-rewrites the schema file). Terrain, props and thrown objects are boxes, spheres and capsules
-only, the shapes a `quadpipe.clip.model.Clip` carries.
+size), `sets` (a mesh file read and sampled into a height field), `terrain`, `props`,
+`throws`, `goals`, `build`, `schema` (and `generate`, which rewrites the schema file). Terrain,
+props and thrown objects are boxes, spheres and capsules, the shapes a
+`quadpipe.clip.model.Clip` carries; a set (`type: mesh` terrain) is a height field, which clips
+leave out (the animator has the set's file).
 """
 
 from quadpipe.world.build import SceneSetup, build_scene

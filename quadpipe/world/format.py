@@ -35,6 +35,7 @@ from quadpipe.quantities.fields import (
     quantities,
     quantity,
 )
+from quadpipe.world.set_format import TerrainMesh
 
 SCHEMA_VERSION = 1
 """The only `schema:` version this quadpipe reads."""
@@ -192,9 +193,15 @@ class TerrainBox(_Model):
     euler: Annotated[quantity(ANGLES), Field([0, 0, 0], description=described(EULER_TEXT, ANGLES))]
 
 
-TERRAIN_TYPES: dict[str, type[_Model]] = {"slope": Slope, "hill": Hill, "stairs": Stairs, "box": TerrainBox}
+TERRAIN_TYPES: dict[str, type[BaseModel]] = {
+    "slope": Slope,
+    "hill": Hill,
+    "stairs": Stairs,
+    "box": TerrainBox,
+    "mesh": TerrainMesh,
+}
 
-Terrain = Annotated[Slope | Hill | Stairs | TerrainBox, Field(discriminator="type")]
+Terrain = Annotated[Slope | Hill | Stairs | TerrainBox | TerrainMesh, Field(discriminator="type")]
 
 
 def _check_size(kind: str | None, size: list[Any]) -> list[Any]:
@@ -464,7 +471,8 @@ class SceneFile(_Model):
         GroundField, Field(default_factory=Ground, description="The floor (`{friction: 1.0}`), or `none` for no floor.")
     ]
     terrain: Annotated[
-        list[Terrain], Field([], description="Static terrain: `slope`, `hill`, `stairs` or `box` items.")
+        list[Terrain],
+        Field([], description="Static terrain: `slope`, `hill`, `stairs`, `box` or `mesh` (a set file) items."),
     ]
     props: Annotated[list[Prop], Field([], description="Loose objects present from the start.")]
     throws: Annotated[
@@ -486,7 +494,7 @@ class SceneFile(_Model):
     ]
 
 
-TAGGED_LISTS: dict[str, tuple[Callable[[dict[str, Any]], str | None], dict[str, type[_Model]], str]] = {
+TAGGED_LISTS: dict[str, tuple[Callable[[dict[str, Any]], str | None], dict[str, type[BaseModel]], str]] = {
     "terrain": (lambda item: item.get("type"), TERRAIN_TYPES, "terrain"),
     "props": (lambda item: "prop", {"prop": Prop}, "prop"),
     "throws": (_throw_tag, {"throw": Throw, "random": ThrowSeries}, "throw"),

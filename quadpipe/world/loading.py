@@ -35,6 +35,7 @@ from quadpipe.world.format import (
     is_zero,
     iter_quantities,
 )
+from quadpipe.world.set_format import TerrainMesh
 
 SCENE_KIND = "scenes"
 """The config folder of scenes (see `quadpipe.core.configs`)."""
@@ -261,6 +262,7 @@ def _reference_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
             )
         seen.add(name)
     issues += _reserved_issues(scene, doc)
+    issues += _set_file_issues(scene, doc)
     for index, entry in enumerate(scene.animals or []):
         if entry.species is not None:
             issues += _species_issues(entry.species, ("animals", index, "species"), doc)
@@ -284,6 +286,24 @@ def _reference_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
                 )
             )
     return issues
+
+
+def _set_file_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
+    """Set files (`type: mesh` terrain) that are missing or in a format quadpipe does not read."""
+    from quadpipe.world.sets import set_issue
+
+    issues = []
+    for index, item in enumerate(scene.terrain):
+        if isinstance(item, TerrainMesh):
+            path = ("terrain", index, "file")
+            issue = set_issue(set_path(doc, item), item.file, doc.locate(path))
+            issues += [] if issue is None else [issue]
+    return issues
+
+
+def set_path(doc: YamlDocument, item: TerrainMesh) -> Path:
+    """Where a set file is: its `file`, relative to the scene file."""
+    return Path(doc.file).parent / item.file
 
 
 def _named_things(scene: SceneFile) -> Iterator[tuple[tuple[Any, ...], str]]:
