@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, overload
 
 import mujoco
@@ -27,6 +28,7 @@ from quadpipe.sim import health as physics
 from quadpipe.sim.metrics import clip_metrics
 from quadpipe.sim.recording import Recorder
 from quadpipe.world.placement import Placement
+from quadpipe.world.timeline import DIRECTED_KEY, DIRECTION_KEY
 
 if TYPE_CHECKING:
     from quadpipe.controllers.language.compiler import CompiledController
@@ -133,6 +135,7 @@ class Simulation:
         parameters: Mapping[str, str] | None = None,
         extra_controllers: Sequence[Controller] = (),
         places: Mapping[str, Location] | None = None,
+        direction: str | Path | None = None,
     ) -> Simulation:
         """An animal (and the scene's other animals) under a controller, in a scene, at t = 0.
 
@@ -143,18 +146,23 @@ class Simulation:
             parameters: controller parameter overrides (YAML values: "2 HP", "[1, 0, 0]").
             extra_controllers: more `Controller`s run after the main one.
             places: where each of `parameters` was written (a batch plan's line), for messages.
+            direction: a direction file, which replaces the scene's `direction:` (docs/direction.md).
 
         Raises:
-            QuadpipeError: the animal, scene or controller cannot be loaded, or do not fit.
+            QuadpipeError: the animal, scene, direction or controller cannot be loaded, or do not fit.
         """
         from quadpipe.animals.library import load_animal
         from quadpipe.animals.model import build_animal
         from quadpipe.world import build_scene, load_scene
+        from quadpipe.world.direction import load_direction
 
         built = build_animal(load_animal(animal))
         scene_spec = load_scene(scene or DEFAULT_SCENE)
         metadata = {"controller": controller or "none", "scene": scene_spec.name, "animal": built.animal.name}
-        simulation = cls(build_scene(scene_spec, built), extra_controllers, metadata)
+        setup = build_scene(scene_spec, built, load_direction(direction) if direction is not None else None)
+        for name, timeline in setup.timelines.items():
+            metadata |= {DIRECTION_KEY: timeline.to_json(), DIRECTED_KEY: name}
+        simulation = cls(setup, extra_controllers, metadata)
         if controller:
             compiled, _ = simulation.compile_controller(controller, parameters, places=places)
             simulation.use_controller(compiled)
@@ -353,6 +361,7 @@ def simulate(
     on_frame: Callable[[float], None] | None = None,
     fps: float = sizing.FRAME_RATE,
     places: Mapping[str, Location] | None = None,
+    direction: str | Path | None = None,
 ) -> Result:
     """Build an animal (and scene), run a controller on it, and return the clip and its metrics.
 
@@ -367,6 +376,7 @@ def simulate(
         fps: recorded frames per second (30, the thesis's; a rat's walk needs more to be
             analysed: its stride lasts 0.17 s).
         places: where each of `parameters` was written (a batch plan's line), for messages.
+        direction: a direction file replacing the scene's `direction:` (docs/direction.md).
 
     Raises:
         QuadpipeError: a time or frame rate out of the run limits (before anything is built),
@@ -374,7 +384,13 @@ def simulate(
     """
     check_run(seconds, fps)
     simulation = Simulation.build(
-        animal, controller, scene=scene, parameters=parameters, extra_controllers=extra_controllers, places=places
+        animal,
+        controller,
+        scene=scene,
+        parameters=parameters,
+        extra_controllers=extra_controllers,
+        places=places,
+        direction=direction,
     )
     clip = simulation.record(seconds, on_frame=on_frame, fps=fps)
     metrics = clip_metrics(clip)

@@ -35,6 +35,7 @@ from quadpipe.quantities.fields import (
     quantities,
     quantity,
 )
+from quadpipe.world.direction_format import DirectionField
 
 SCHEMA_VERSION = 1
 """The only `schema:` version this quadpipe reads."""
@@ -484,6 +485,7 @@ class SceneFile(_Model):
             description="Where the animals start; default: one animal (the command line's) at the origin, facing +x. `HP`, `bw` and `bm` in the whole scene are those of the first.",
         ),
     ]
+    direction: DirectionField
 
 
 TAGGED_LISTS: dict[str, tuple[Callable[[dict[str, Any]], str | None], dict[str, type[_Model]], str]] = {

@@ -1,5 +1,5 @@
-"""Goals: controller parameters a scene sets, as controller-language text (a fixed point, or
-a point moving along timed waypoints)."""
+"""Goals: controller parameters a scene sets, as controller-language text (a fixed point, a
+point moving along timed waypoints, or a direction's timeline for `direct`)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.yamlio import dotted
 from quadpipe.quantities.expressions import TIME_VARIABLE
 from quadpipe.world.loading import SceneSpec
+from quadpipe.world.timeline import Timeline
 from quadpipe.world.values import Values
 
 
@@ -33,26 +34,133 @@ def goal_text(scene: SceneSpec, values: Values, name: str) -> str:
     return goal_expression(waypoints)
 
 
-def goal_expression(waypoints: Sequence[tuple[float, np.ndarray]]) -> str:
+def goal_expression(waypoints: Sequence[tuple[float, np.ndarray]], digits: int = 10) -> str:
     """A piecewise-linear point in time as controller-language text (metres, `t` in seconds).
 
     The point is the first waypoint plus, for each segment, its displacement times the
     fraction of the segment elapsed: `clamp((t - t0) / (t1 - t0), 0, 1)`.
     """
-    terms = [vector_text(waypoints[0][1])]
+    terms = [vector_text(waypoints[0][1], digits)]
     for (t0, p0), (t1, p1) in zip(waypoints, waypoints[1:]):
         terms.append(
-            f"{vector_text(p1 - p0)} * clamp(({TIME_VARIABLE} - {number_text(t0)} s) / ({number_text(t1 - t0)} s), 0, 1)"
+            f"{vector_text(p1 - p0, digits)} * clamp(({TIME_VARIABLE} - {number_text(t0, digits)} s) / ({number_text(t1 - t0, digits)} s), 0, 1)"
         )
-    return " + ".join(terms)
+    return balanced_sum(terms)
 
 
-def vector_text(vector: np.ndarray) -> str:
+def balanced_sum(terms: Sequence[str]) -> str:
+    """The sum of expression texts, bracketed as a balanced tree: a long path's expression
+    nests log2(n) levels deep, not n (see `MAX_EXPRESSION_DEPTH`)."""
+    if len(terms) <= 2:
+        return " + ".join(terms)
+    middle = len(terms) // 2
+    return f"({balanced_sum(terms[:middle])}) + ({balanced_sum(terms[middle:])})"
+
+
+def vector_text(vector: np.ndarray, digits: int = 10) -> str:
     """A point in metres as controller-language text: `[13.1 m, 0 m, 0 m]`."""
-    return "[" + ", ".join(f"{number_text(v)} m" for v in vector) + "]"
+    return "[" + ", ".join(f"{number_text(v, digits)} m" for v in vector) + "]"
 
 
-def number_text(value: float) -> str:
-    """A number with 10 significant digits, without `-0`."""
-    text = f"{float(value):.10g}"
+def number_text(value: float, digits: int = 10) -> str:
+    """A number with `digits` significant digits, without `-0`."""
+    text = f"{float(value):.{digits}g}"
     return "0" if text == "-0" else text
+
+
+CARROT_HP = 2.5
+"""How far ahead of the reference point along the path the animal steers, pelvis heights."""
+
+STAND_RAMP_NATURAL = 1.0
+"""How long the gait takes to fade into a stand (and back), natural times."""
+
+DIRECTION_DIGITS = 7
+"""Significant digits of the numbers of a direction's expressions (a micrometre on a 10 m path)."""
+
+
+def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> dict[str, str]:
+    """The controller parameters that play a timeline (see configs/controllers/direct.yaml):
+
+    - `path_point`: where the pelvis should be now, on the path;
+    - `path_goal`: the point `CARROT_HP` further along, which the animal steers toward;
+    - `path_tangent`: the path's direction at `path_point` (a unit vector);
+    - `path_speed`: the asked speed now (0 while standing);
+    - `path_stand`: 0 while moving, 1 while standing, a smooth ramp between.
+    """
+    return {
+        "path_point": timed_points_text(timeline, 0.0),
+        "path_goal": timed_points_text(timeline, CARROT_HP * hp),
+        "path_tangent": _tangent_text(timeline),
+        "path_speed": _steps_text([(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"),
+        "path_stand": _stand_text(timeline.stands(), STAND_RAMP_NATURAL * natural_time),
+    }
+
+
+def timed_points_text(timeline: Timeline, ahead: float) -> str:
+    """The point `ahead` metres along the path from the reference, in time, as text: a
+    corner wherever it passes a point of the polyline or the reference speed changes."""
+    lengths = timeline.lengths
+    times = []
+    for (t0, s0), (t1, s1) in zip(timeline.knots(), timeline.knots()[1:]):
+        times.append(t0)
+        if s1 > s0:
+            inside = lengths[(lengths - ahead > s0) & (lengths - ahead < s1)] - ahead
+            times += list(t0 + (inside - s0) / (s1 - s0) * (t1 - t0))
+    times.append(timeline.end)
+    times = sorted(set(times))
+    points = timeline.point_at(timeline.distance_at(np.array(times)) + ahead)
+    return goal_expression([(t, np.array([x, y, 0.0])) for t, (x, y) in zip(times, points)], DIRECTION_DIGITS)
+
+
+def _tangent_text(timeline: Timeline) -> str:
+    """The path's unit tangent at the reference point, in time: it turns as the reference
+    passes each point of the polyline."""
+    lengths, points = timeline.lengths, timeline.points
+    pieces = np.diff(points, axis=0)
+    units = pieces / np.maximum(np.linalg.norm(pieces, axis=1, keepdims=True), 1e-12)
+    knots = timeline.knots()
+    knot_t, knot_s = np.array([k[0] for k in knots]), np.array([k[1] for k in knots])
+    changes = []
+    for k in range(1, len(units)):
+        passed = np.nonzero(knot_s >= lengths[k])[0]
+        if len(passed) == 0:
+            break
+        j = passed[0]
+        when = knot_t[0] if j == 0 else np.interp(lengths[k], knot_s[j - 1 : j + 1], knot_t[j - 1 : j + 1])
+        changes.append((float(when), units[k] - units[k - 1]))
+    terms = [_plain_vector(units[0])] + [
+        f"{_plain_vector(change)} * step({number_text(when, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+        for when, change in changes
+        if np.abs(change).max() > 1e-9
+    ]
+    return balanced_sum(terms)
+
+
+def _steps_text(values: Sequence[tuple[float, float]], unit: str) -> str:
+    """A piecewise-constant value in time as text: `values[0]` then a step at each change."""
+    terms = [f"{number_text(values[0][1], DIRECTION_DIGITS)} {unit}"]
+    for (_, before), (when, after) in zip(values, values[1:]):
+        if after != before:
+            terms.append(
+                f"{number_text(after - before, DIRECTION_DIGITS)} {unit} * step({number_text(when, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+            )
+    return balanced_sum(terms)
+
+
+def _stand_text(stands: Sequence[tuple[float, float]], ramp: float) -> str:
+    """1 while standing, 0 while moving, with a smooth ramp of `ramp` seconds after each change."""
+    terms = ["0"]
+    for start, end in stands:
+        terms.append(
+            f"smoothstep({number_text(start, DIRECTION_DIGITS)} s, {number_text(start + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+        )
+        if np.isfinite(end):
+            terms.append(
+                f"-smoothstep({number_text(end, DIRECTION_DIGITS)} s, {number_text(end + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+            )
+    return balanced_sum(terms)
+
+
+def _plain_vector(vector: np.ndarray) -> str:
+    """A horizontal unit vector as text: `[0.7071068, 0.7071068, 0]`."""
+    return "[" + ", ".join(number_text(v, DIRECTION_DIGITS) for v in (*vector[:2], 0.0)) + "]"

@@ -1,0 +1,194 @@
+"""How well a directed animal played its shot: path error, arrival times, speeds and stands.
+
+A clip baked with a direction carries its timeline in its metadata (`DIRECTION_KEY`, see
+`quadpipe.world.timeline`). `direction_report` follows the animal's pelvis along the path
+(its projection, searched near the last one, so that a figure-eight's crossing does not
+jump branches) and measures, per beat: for a move, when the pelvis reached its end against
+when it was asked to, its mean speed against the asked one and its lateral error; for a
+stand, whether all four feet are down and the pelvis still once it has settled.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from quadpipe.anatomy import roles
+from quadpipe.clip.model import Clip
+from quadpipe.world.timeline import DIRECTED_KEY, DIRECTION_KEY, Segment, Timeline
+
+GRAVITY = 9.80665
+"""Standard gravity, m/s^2 (natural time sqrt(HP / g))."""
+
+SETTLE_NATURAL = 2.0
+"""A stand is measured from this many natural times after it starts (it settles first)."""
+
+SEARCH_BEHIND_HP = 1.0
+SEARCH_AHEAD_HP = 3.0
+"""The pelvis's place on the path is searched this far behind and ahead of its last one, HP."""
+
+
+@dataclass(frozen=True)
+class BeatFigures:
+    """One beat as played.
+
+    Attributes:
+        kind: `move`, `hold` or `stop` (`end` for the stand after the last beat).
+        beat: its index among the beats (-1 for `end`).
+        asked_start_s, asked_end_s: when it was asked to start and end.
+        arrival_s: a move: when the pelvis reached its end (None: never).
+        arrival_error_s: a move: arrival_s - asked_end_s.
+        asked_speed_hp: a move: the asked speed, HP per natural time.
+        speed_error: a move: its mean speed (its length over the time the pelvis took) / asked - 1.
+        strides: a move: its length in Alexander strides at the asked speed (2.3 Fr^0.3 HP).
+        lateral_rms_hp: a move: RMS distance of the pelvis from the path while on it, HP.
+        feet_down: a stand: fraction of its settled frames with all four feet down.
+        still_speed_hp: a stand: highest pelvis speed over its settled frames, HP per natural time.
+    """
+
+    kind: str
+    beat: int
+    asked_start_s: float
+    asked_end_s: float
+    arrival_s: float | None = None
+    arrival_error_s: float | None = None
+    asked_speed_hp: float | None = None
+    speed_error: float | None = None
+    strides: float | None = None
+    lateral_rms_hp: float | None = None
+    feet_down: float | None = None
+    still_speed_hp: float | None = None
+
+
+@dataclass(frozen=True)
+class DirectionReport:
+    """A directed animal's shot as played: its beats, and the shot's own figures.
+
+    Attributes:
+        animal: the directed animal's name.
+        shot_s: when the last beat was asked to end.
+        beats: per beat, in order, then the final stand (`end`).
+        lateral_rms_hp: RMS lateral error over every move after the first, HP (None: no such move).
+    """
+
+    animal: str
+    shot_s: float
+    beats: tuple[BeatFigures, ...]
+    lateral_rms_hp: float | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready."""
+        return asdict(self)
+
+
+def direction_report(clip: Clip) -> DirectionReport | None:
+    """The direction report of a clip, None when it carries no direction."""
+    if DIRECTION_KEY not in clip.metadata:
+        return None
+    timeline = Timeline.from_json(clip.metadata[DIRECTION_KEY])
+    track = next(a for a in clip.animals if a.name == clip.metadata.get(DIRECTED_KEY, clip.animals[0].name))
+    hp = track.pelvis_height
+    natural = math.sqrt(hp / GRAVITY)
+    pelvis = track.positions[:, roles.ROLES.index("pelvis"), :2]
+    times = np.arange(len(pelvis)) / clip.fps
+    along, aside = follow(timeline, pelvis, hp)
+    measure = _Measure(timeline, times, along, aside, pelvis, track.foot_contacts, hp, natural)
+    stands = [Segment("end", -1, timeline.end, math.inf, 0.0, 0.0, 0.0)]
+    beats = tuple(measure.beat(segment) for segment in [*timeline.segments, *stands])
+    later = [k for k, seg in enumerate(timeline.segments) if seg.kind == "move"][1:]
+    errors = np.concatenate([measure.lateral(timeline.segments[k]) for k in later]) if later else np.array([])
+    rms = float(np.sqrt(np.mean(errors**2)) / hp) if len(errors) else None
+    return DirectionReport(track.name, timeline.end, beats, rms)
+
+
+def follow(timeline: Timeline, pelvis: np.ndarray, hp: float) -> tuple[np.ndarray, np.ndarray]:
+    """The pelvis's distance along the path and its distance from it, per frame (metres).
+
+    Each frame's place is the nearest point of the path within `SEARCH_BEHIND_HP` behind and
+    `SEARCH_AHEAD_HP` ahead of the last frame's place.
+    """
+    points, lengths = timeline.points, timeline.lengths
+    starts, pieces = points[:-1], np.diff(points, axis=0)
+    piece_lengths = np.maximum(np.linalg.norm(pieces, axis=1), 1e-12)
+    along, aside = np.zeros(len(pelvis)), np.zeros(len(pelvis))
+    last = 0.0
+    for frame, where in enumerate(pelvis):
+        fraction = np.clip(np.einsum("ij,ij->i", where - starts, pieces) / piece_lengths**2, 0, 1)
+        nearest = starts + fraction[:, None] * pieces
+        distance = np.linalg.norm(where - nearest, axis=1)
+        place = lengths[:-1] + fraction * piece_lengths
+        near = (place >= last - SEARCH_BEHIND_HP * hp) & (place <= last + SEARCH_AHEAD_HP * hp)
+        best = int(np.argmin(np.where(near, distance, np.inf))) if near.any() else int(np.argmin(distance))
+        along[frame], aside[frame] = place[best], distance[best]
+        last = along[frame]
+    return along, aside
+
+
+@dataclass
+class _Measure:
+    """What measuring the beats shares: the clip's frames and the pelvis's place on the path."""
+
+    timeline: Timeline
+    times: np.ndarray
+    along: np.ndarray
+    aside: np.ndarray
+    pelvis: np.ndarray
+    contacts: np.ndarray
+    hp: float
+    natural: float
+
+    def reached(self, distance: float) -> float | None:
+        """When the pelvis first reached `distance` along the path (None: never)."""
+        done = np.nonzero(self.along >= distance - 1e-9)[0]
+        return float(self.times[done[0]]) if len(done) else None
+
+    def lateral(self, segment: Segment) -> np.ndarray:
+        """The pelvis's distances from the path while it was on a move's stretch, metres."""
+        return self.aside[(self.along > segment.s0) & (self.along < segment.s1)]
+
+    def beat(self, segment: Segment) -> BeatFigures:
+        """One beat's figures (see `BeatFigures`)."""
+        if segment.kind == "move":
+            return self._move(segment)
+        return self._stand(segment)
+
+    def _move(self, segment: Segment) -> BeatFigures:
+        start, arrival = self.reached(segment.s0), self.reached(segment.s1)
+        asked = segment.speed * self.natural / self.hp
+        froude = segment.speed**2 / (GRAVITY * self.hp)
+        strides = (segment.s1 - segment.s0) / (2.3 * froude**0.3 * self.hp)
+        speed_error = None
+        if start is not None and arrival is not None and arrival > start:
+            speed_error = (segment.s1 - segment.s0) / (arrival - start) / segment.speed - 1
+        lateral = self.lateral(segment)
+        return BeatFigures(
+            segment.kind,
+            segment.beat,
+            segment.start,
+            segment.end,
+            arrival,
+            None if arrival is None else arrival - segment.end,
+            asked,
+            speed_error,
+            strides,
+            float(np.sqrt(np.mean(lateral**2)) / self.hp) if len(lateral) else None,
+        )
+
+    def _stand(self, segment: Segment) -> BeatFigures:
+        frames = (self.times >= segment.start + SETTLE_NATURAL * self.natural) & (self.times <= segment.end)
+        figures = BeatFigures(segment.kind, segment.beat, segment.start, segment.end)
+        if frames.sum() < 2:
+            return figures
+        speeds = np.linalg.norm(np.gradient(self.pelvis, self.times, axis=0), axis=1)[frames]
+        feet = self.contacts[frames].all(axis=1)
+        return BeatFigures(
+            segment.kind,
+            segment.beat,
+            segment.start,
+            segment.end,
+            feet_down=float(feet.mean()),
+            still_speed_hp=float(speeds.max() * self.natural / self.hp),
+        )

@@ -1,0 +1,140 @@
+"""Directions: a scene's `direction:` section or a direction file, checked and played out.
+
+`load_direction` reads a direction file (`--direction FILE`) with the scene's checks:
+structure, then units, each problem at its file:line:col. `scene_timelines` evaluates a
+direction for the scene's animals and plays it (`quadpipe.world.timeline.plan_direction`),
+reporting moves to points that do not exist and arrivals that come too soon, located.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from quadpipe.core.errors import Issue, Location, QuadpipeError
+from quadpipe.core.yamlio import YamlDocument, load_yaml
+from quadpipe.quantities import units
+from quadpipe.world.direction_format import AnimalDirection, DirectionFile, Hold, Move
+from quadpipe.world.format import SCHEMA_VERSION
+from quadpipe.world.loading import SceneSpec, file_order, quantity_issues, validate_part
+from quadpipe.world.timeline import BeatValues, Timeline, plan_direction
+from quadpipe.world.values import Values
+
+
+@dataclass(frozen=True)
+class DirectionSpec:
+    """A validated direction file: its content and its parsed YAML (to locate values)."""
+
+    file: DirectionFile
+    doc: YamlDocument
+
+    def locate(self, path: tuple[Any, ...]) -> Location:
+        """Where a value of the file is (or its nearest enclosing value)."""
+        return self.doc.locate(path)
+
+
+def load_direction(path: str | Path) -> DirectionSpec:
+    """Load a direction file.
+
+    Raises:
+        QuadpipeError: unreadable file, or every problem found in it, each at its file:line:col.
+    """
+    doc = load_yaml(path, "direction", DirectionFile)
+    if not isinstance(doc.data, dict):
+        raise QuadpipeError.single(
+            "invalid-value", "a direction file must be a mapping of keys (schema, direction)", where=doc.locate(())
+        )
+    issues = validate_part(DirectionFile, doc.data, (), doc)
+    if not issues and doc.data.get("schema") != SCHEMA_VERSION:
+        issues.append(
+            Issue(
+                "unsupported-schema",
+                f"schema version {doc.data.get('schema')!r} is not supported",
+                doc.locate(("schema",)),
+                f"this quadpipe reads `schema: {SCHEMA_VERSION}`",
+            )
+        )
+    if not issues:
+        issues = quantity_issues(DirectionFile.model_validate(doc.data), doc)
+    if issues:
+        raise QuadpipeError(sorted(issues, key=file_order))
+    return DirectionSpec(DirectionFile.model_validate(doc.data), doc)
+
+
+def scene_timelines(
+    scene: SceneSpec, values: Values, names: list[str], scale: units.Scale, direction: DirectionSpec | None = None
+) -> dict[str, Timeline]:
+    """Each directed animal's timeline: the direction file's if given, else the scene's.
+
+    Args:
+        scene: the scene, with its values.
+        values: the scene's values (SI, for its first animal).
+        names: the scene's animals, in order.
+        scale: the first animal's scale (a direction file's values are evaluated for it).
+        direction: a direction file that replaces the scene's `direction:`.
+
+    Raises:
+        QuadpipeError: a direction for an animal the scene does not have, for more than one
+            animal, a move to a point that does not exist or behind the animal, an arrival
+            no later than its beat starts.
+    """
+    source: SceneSpec | DirectionSpec = direction or scene
+    found = direction.file.direction if direction is not None else scene.file.direction
+    evaluated = Values(direction, scale) if direction is not None else values
+    natural_time = math.sqrt(values.hp / units.STANDARD_GRAVITY)
+    issues: list[Issue] = []
+    timelines = {}
+    for name, animal in found.items():
+        path = ("direction", name)
+        if name not in names:
+            issues.append(
+                Issue(
+                    "unknown-animal-ref",
+                    f"there is no animal {name!r} in this scene",
+                    source.locate(path),
+                    f"the scene's animals: {', '.join(names[:10])}",
+                )
+            )
+            continue
+        timeline, found_issues = _play(animal, path, evaluated, natural_time, source)
+        timelines[name] = timeline
+        issues += found_issues
+    if len(found) > 1 and not issues:
+        issues.append(
+            Issue(
+                "direction-several-animals",
+                f"this direction drives {len(found)} animals; one controller drives a scene's animals, so a direction drives one",
+                source.locate(("direction",)),
+                "direct one animal per scene",
+            )
+        )
+    if issues:
+        raise QuadpipeError(sorted(issues, key=file_order))
+    return timelines
+
+
+def _play(
+    animal: AnimalDirection,
+    path: tuple[Any, ...],
+    values: Values,
+    natural_time: float,
+    source: SceneSpec | DirectionSpec,
+) -> tuple[Timeline, list[Issue]]:
+    """One animal's direction, evaluated and played out."""
+    points = values.items(path + ("path", "points"), len(animal.path.points))
+    beats = [_beat_values(beat, path + ("beats", k), values) for k, beat in enumerate(animal.beats)]
+    return plan_direction(points[:, :2], animal.path.smooth, beats, natural_time, source.locate)
+
+
+def _beat_values(beat: Move | Hold | str, path: tuple[Any, ...], values: Values) -> BeatValues:
+    """A beat with its values in SI."""
+    if isinstance(beat, Move):
+        speed = values.get(path + ("speed",))
+        if beat.froude is not None:
+            speed = math.sqrt(beat.froude * units.STANDARD_GRAVITY * values.hp)
+        return BeatValues("move", beat.to, speed, values.get(path + ("at",)), where=path)
+    if isinstance(beat, Hold):
+        return BeatValues("hold", hold=values[path + ("hold",)], where=path)
+    return BeatValues("stop", where=path)

@@ -1,0 +1,123 @@
+"""The direction format: an animal's path and its beats along it, as an animator blocks a shot.
+
+A scene's `direction:` section and a direction file (`--direction FILE`, `DirectionFile`)
+hold the same thing: animal name -> `AnimalDirection`. The models follow the scene format's
+conventions (`quadpipe.world.format`): quantities carry their markers, so units are checked
+and values evaluated like every other scene value, and every `description` is user
+documentation in the JSON Schema.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
+
+from quadpipe.core.yamlio import Name
+from quadpipe.quantities import fields, units
+from quadpipe.quantities.expressions import SCALAR, Expect
+from quadpipe.quantities.fields import NON_NEGATIVE, POSITIVE, Items, described, quantity
+
+POINT = fields.with_example(fields.POINT, "[4 HP, 0, 0]")
+SPEED = Expect(SCALAR, (units.VELOCITY,), "velocity", "froude_speed(0.15)")
+TIME = Expect(SCALAR, (units.TIME,), "time", "6 s")
+MAX_PATH_POINTS = 64
+"""Most points one path may have (each becomes terms of the controller's expressions)."""
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", populate_by_name=True)
+
+
+class DirectionPath(_Model):
+    """The line the animal's pelvis follows over the ground."""
+
+    points: Annotated[
+        list[quantity(POINT)],  # type: ignore[valid-type]  # a pydantic field type built by a call
+        Items(POINT),
+        Field(
+            min_length=2,
+            max_length=MAX_PATH_POINTS,
+            description=f"The path's points `[x, y, z]` in world coordinates (z is ignored: the animal walks on whatever is below), from where the animal starts; 2 to {MAX_PATH_POINTS} points. Each is a point a move can end at (`to`, counted from 0).",
+        ),
+    ]
+    smooth: Annotated[
+        bool,
+        Field(
+            False,
+            description="`true`: a smooth curve through the points (a Catmull-Rom spline); `false`: straight lines between them.",
+        ),
+    ]
+
+
+class Move(_Model):
+    """Go along the path to one of its points, at a speed or arriving at a time."""
+
+    to: Annotated[int, Field(ge=1, description="The path point this move ends at (counted from 0; 0 is the start).")]
+    speed: Annotated[
+        quantity(SPEED, POSITIVE) | None,
+        Field(None, description=described("The speed along the path.", SPEED)),
+    ]
+    froude: Annotated[
+        float | None,
+        Field(None, gt=0, le=5, description="The speed as a Froude number, speed^2 / (g HP): 0.15 a walk, 0.6 a trot."),
+    ]
+    at: Annotated[
+        quantity(TIME, NON_NEGATIVE) | None,
+        Field(None, description=described("When the animal arrives at `to`, from the start of the shot.", TIME)),
+    ]
+
+    @model_validator(mode="after")
+    def _one_pace(self) -> Move:
+        if sum(value is not None for value in (self.speed, self.froude, self.at)) != 1:
+            raise ValueError("give exactly one of `speed`, `froude` and `at`")
+        return self
+
+
+class Hold(_Model):
+    """Come to a stand where the animal is, all four feet down, and stay for a while."""
+
+    hold: Annotated[
+        quantity(TIME, POSITIVE), Field(description=described("How long it stands, from the start of the stop.", TIME))
+    ]
+
+
+def _beat_tag(value: Any) -> str:
+    if value == "stop" or isinstance(value, str):
+        return "stop"
+    has_hold = "hold" in value if isinstance(value, dict) else isinstance(value, Hold)
+    return "hold" if has_hold else "move"
+
+
+Beat = Annotated[
+    Annotated[Move, Tag("move")] | Annotated[Hold, Tag("hold")] | Annotated[Literal["stop"], Tag("stop")],
+    Discriminator(_beat_tag),
+]
+
+
+class AnimalDirection(_Model):
+    """One animal's shot: its path and its beats, played in order from the start."""
+
+    path: Annotated[DirectionPath, Field(description="The path.")]
+    beats: Annotated[
+        list[Beat],
+        Field(
+            min_length=1,
+            description="What the animal does, in order: moves (`{to: 2, speed: froude_speed(0.15)}`, `{to: 3, at: 8 s}`), holds (`{hold: 2 s}`), and `stop` (stand still to the end; the shot also ends standing after its last move).",
+        ),
+    ]
+
+
+DIRECTION_DESCRIPTION = "How the animals are directed, by animal name (the default animal is named after its species, e.g. `dog`): a path and beats along it (docs/direction.md)."
+
+DirectionField = Annotated[dict[str, AnimalDirection], Field({}, description=DIRECTION_DESCRIPTION)]
+"""The `direction:` mapping, in a scene or a direction file."""
+
+
+class DirectionFile(_Model):
+    """Schema of a direction file (`--direction FILE` on `simulate` and `bake`)."""
+
+    schema_: Annotated[int, Field(alias="schema", description="Format version; this quadpipe reads `1`.")]
+    name: Annotated[Name | None, Field(None, description="Name of the shot.")]
+    description: Annotated[str, Field("", description="One line about the shot.")]
+    direction: DirectionField
