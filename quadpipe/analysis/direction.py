@@ -192,3 +192,26 @@ class _Measure:
             feet_down=float(feet.mean()),
             still_speed_hp=float(speeds.max() * self.natural / self.hp),
         )
+
+
+def format_direction(report: DirectionReport) -> str:
+    """The direction report as text for the terminal: a line per beat."""
+    lines = [
+        f"direction of {report.animal}: shot {report.shot_s:.2f} s, lateral error after the first move "
+        f"{_figure(report.lateral_rms_hp, 3)} HP RMS",
+        "  beat  kind  asked(s)       arrived(s)  error(% shot)  speed(HP/T)  speed err(%)  lateral(HP)  feet down  still(HP/T)",
+    ]
+    for b in report.beats:
+        error = None if b.arrival_error_s is None else 100 * b.arrival_error_s / report.shot_s
+        lines.append(
+            f"  {b.beat:>4}  {b.kind:<4}  {b.asked_start_s:5.2f}-{b.asked_end_s:<7.2f}  {_figure(b.arrival_s):>10}  "
+            f"{_figure(error, 1):>13}  {_figure(b.asked_speed_hp, 3):>11}  "
+            f"{_figure(None if b.speed_error is None else 100 * b.speed_error, 1):>12}  "
+            f"{_figure(b.lateral_rms_hp, 3):>11}  {_figure(b.feet_down):>9}  {_figure(b.still_speed_hp, 3):>11}"
+        )
+    return "\n".join(lines)
+
+
+def _figure(value: float | None, digits: int = 2) -> str:
+    """A number with `digits` decimals, or `-` when not measured."""
+    return "-" if value is None else f"{value:.{digits}f}"

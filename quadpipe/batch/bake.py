@@ -36,11 +36,13 @@ def bake(
     on_frame: Callable[[float], None] | None = None,
     places: Mapping[str, Location] | None = None,
     look: Look = "body",
+    direction: Path | None = None,
 ) -> Result:
     """Simulate once (see `quadpipe.sim.simulation.simulate`), write the clip into every output,
     then the metrics JSON: all of them, or none (inside a running `transaction`, at its commit).
     `places` says where each of `parameters` was written (a batch plan's line), for messages;
-    `look` how glTF and USD files draw the animals (`quadpipe.bodies`).
+    `look` how glTF and USD files draw the animals (`quadpipe.bodies`); `direction` a direction
+    file replacing the scene's (docs/direction.md).
 
     Raises:
         QuadpipeError: the inputs cannot be loaded, the simulation blew up, a file cannot be
@@ -59,6 +61,7 @@ def bake(
         on_frame=on_frame,
         fps=fps,
         places=places,
+        direction=direction,
     )
     with transaction():
         for output in outputs:

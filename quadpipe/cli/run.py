@@ -12,6 +12,7 @@ from quadpipe.cli.options import (
     AnimalOpt,
     ControllerOpt,
     DiagramOpt,
+    DirectionOpt,
     FpsOpt,
     GaitReportOpt,
     Look,
@@ -45,13 +46,25 @@ def simulate(
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
     look: LookOpt = Look.body,
+    direction: DirectionOpt = None,
 ) -> None:
     """Simulate an animal under a controller and write the clip and its metrics.
 
     Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png
     """
     _bake_and_report(
-        animal, controller, scene, seconds, [output], metrics, parameters, fps, gait_report, diagram, look_name(look)
+        animal,
+        controller,
+        scene,
+        seconds,
+        [output],
+        metrics,
+        parameters,
+        fps,
+        gait_report,
+        diagram,
+        look_name(look),
+        direction,
     )
 
 
@@ -67,6 +80,7 @@ def bake(
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
     look: LookOpt = Look.body,
+    direction: DirectionOpt = None,
 ) -> None:
     """Simulate once and bake the motion into every requested file; the suffix picks the format.
 
@@ -74,7 +88,18 @@ def bake(
     Example: quadpipe bake --animal horse --controller trot --scene hill -o horse.glb -o horse.usdc --gait-report horse.gait.json
     """
     _bake_and_report(
-        animal, controller, scene, seconds, outputs, metrics, parameters, fps, gait_report, diagram, look_name(look)
+        animal,
+        controller,
+        scene,
+        seconds,
+        outputs,
+        metrics,
+        parameters,
+        fps,
+        gait_report,
+        diagram,
+        look_name(look),
+        direction,
     )
 
 
@@ -90,6 +115,7 @@ def _bake_and_report(
     gait_report: Path | None,
     diagram: Path | None,
     look: LookName,
+    direction: Path | None = None,
 ) -> None:
     """`simulate` and `bake`: check every output path first, bake, print the figures, write the gait
     files: every file, or none (they are renamed into place together at the end)."""
@@ -100,7 +126,10 @@ def _bake_and_report(
     check_run(seconds, fps, names=("--seconds", "--fps"))
     metrics_path = metrics or outputs[0].with_suffix(METRICS_SUFFIX)
     metrics_named = ("--metrics", metrics) if metrics else ("the default --metrics", metrics_path)
-    _check_bake_outputs(outputs, metrics_named, gait_report, diagram, [animal, controller, scene])
+    inputs = list(zip(INPUT_OPTIONS, [animal, controller, scene])) + (
+        [("--direction", str(direction))] if direction else []
+    )
+    _check_bake_outputs(outputs, metrics_named, gait_report, diagram, inputs)
     with transaction():
         result = bake(
             animal,
@@ -113,6 +142,7 @@ def _bake_and_report(
             places=parameter_places(parameters),
             fps=fps,
             look=look,
+            direction=direction,
         )
         print_warnings(result.warnings)
         typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
@@ -132,7 +162,11 @@ INPUT_OPTIONS = ("--animal", "--controller", "--scene")
 
 
 def _check_bake_outputs(
-    outputs: list[Path], metrics: tuple[str, Path], gait_report: Path | None, diagram: Path | None, inputs: list[str]
+    outputs: list[Path],
+    metrics: tuple[str, Path],
+    gait_report: Path | None,
+    diagram: Path | None,
+    inputs: list[tuple[str, str]],
 ) -> None:
     """Before simulating: every output a distinct file, apart from the inputs, of the right suffix, writable."""
     from quadpipe.core.atomic import check_writable
@@ -141,9 +175,7 @@ def _check_bake_outputs(
 
     named = [("-o", output) for output in outputs] + [metrics]
     named += [(option, path) for option, path in (("--gait-report", gait_report), ("--diagram", diagram)) if path]
-    check_distinct(
-        named, [(f"the {option} file", Path(name)) for option, name in zip(INPUT_OPTIONS, inputs, strict=True)]
-    )
+    check_distinct(named, [(f"the {option} file", Path(name)) for option, name in inputs])
     for output in outputs:
         check_output_path(output)
     for option, path in named[len(outputs) :]:

@@ -209,9 +209,12 @@ GROUPS: tuple[CodeGroup, ...] = (
             "not-constant": "a scene value that reads the simulation (`t`, a sensor, a body point)",
             "invalid-range": "a [lowest, highest] range given highest first",
             "reserved-name": "a prop named like a part of the scene itself",
-            "unknown-animal-ref": "a throw or goal naming an animal that is not in the scene",
+            "unknown-animal-ref": "a throw, goal or direction naming an animal that is not in the scene",
             "animal-count": "a number of animals given that does not fill the scene's animals without a species",
             "throw-out-of-reach": "a throw too slow to reach its target from its direction",
+            "direction-bad-point": "a direction's move to a path point that does not exist, or that is not ahead of the animal",
+            "direction-too-soon": "a direction's move asked to arrive no later than it starts",
+            "direction-several-animals": "a direction for more than one animal (one controller drives a scene's animals: direct one per scene)",
         },
     ),
     CodeGroup(

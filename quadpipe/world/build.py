@@ -15,8 +15,8 @@ from quadpipe.animals import sizing
 from quadpipe.animals.model import BuiltAnimal
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities import units
-from quadpipe.world.format import AnimalGrid, Ground
 from quadpipe.world.direction import DirectionSpec, scene_timelines
+from quadpipe.world.format import AnimalGrid, Ground
 from quadpipe.world.goals import direction_parameters, goal_text
 from quadpipe.world.loading import SceneSpec, entry_names, is_path
 from quadpipe.world.placement import Placement, attach_animals, world_spec

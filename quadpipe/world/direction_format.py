@@ -33,7 +33,7 @@ class DirectionPath(_Model):
     """The line the animal's pelvis follows over the ground."""
 
     points: Annotated[
-        list[quantity(POINT)],  # type: ignore[valid-type]  # a pydantic field type built by a call
+        list[quantity(POINT)],
         Items(POINT),
         Field(
             min_length=2,

@@ -5,16 +5,15 @@ from __future__ import annotations
 from typing import Any, Protocol
 
 import numpy as np
-
 from pydantic import BaseModel
 
 from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.limits import SCENE_EXTENT_HP
+from quadpipe.core.yamlio import YamlDocument
 from quadpipe.quantities import units
 from quadpipe.quantities.expressions import VECTOR, Expect, compile_quantity
 from quadpipe.quantities.fields import Bounds
 from quadpipe.world.format import is_zero, iter_quantities
-from quadpipe.core.yamlio import YamlDocument
 from quadpipe.world.loading import file_order, shown
 
 

@@ -1,0 +1,215 @@
+"""Directions (#16): the format and its located errors, the timeline, and the `direct`
+controller playing shots: speeds, arrivals, stops and starts, a loop, the stairs' landing."""
+
+from __future__ import annotations
+
+import functools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from quadpipe.analysis.direction import DirectionReport, direction_report, format_direction
+from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.world.direction import load_direction
+from quadpipe.world.schema import DIRECTION_SCHEMA_PATH, direction_schema_text
+from quadpipe.world.timeline import BeatValues, dense_path, plan_direction
+from tests.conftest import FIXTURES, REPO
+
+DIRECTIONS = FIXTURES / "direction"
+
+SPEED_TOLERANCE = 0.05
+"""Mean speed on each stretch of at least `MEASURED_STRIDES` strides: within 5 % of the asked speed."""
+
+MEASURED_STRIDES = 4.0
+ARRIVAL_TOLERANCE = 0.03
+"""Each move reaches its end within 3 % of the shot's length of when it was asked to."""
+
+STILL_HP = 0.02
+"""A settled stand: pelvis speed below this, pelvis heights per natural time."""
+
+LOOP_LATERAL_HP = 0.3
+"""A loop at a walk: RMS lateral error after the first move, pelvis heights."""
+
+TAIL_S = 3.0
+"""Seconds simulated after a shot's last beat (the final stand)."""
+
+
+def nowhere(path: tuple) -> Location:
+    return Location()
+
+
+def write_direction(folder: Path, animal: str, body: dict) -> Path:
+    """A direction file for one animal."""
+    path = folder / f"{animal}.direction.yaml"
+    path.write_text(yaml.safe_dump({"schema": 1, "direction": {animal: body}}), encoding="utf-8")
+    return path
+
+
+@functools.cache
+def played(animal: str, direction: Path | None, scene: str | None, seconds: float) -> DirectionReport:
+    """The direction report of a shot simulated under `direct` (once per session)."""
+    from quadpipe.sim.simulation import simulate
+
+    result = simulate(animal, "direct", seconds=seconds, scene=scene, direction=direction)
+    assert not result.metrics["animals"][animal]["fell"], f"the {animal} fell"
+    report = direction_report(result.clip)
+    assert report is not None
+    return report
+
+
+# --------------------------------------------------------------------------- the timeline
+
+
+def test_moves_take_their_speed_or_arrive_on_time_and_holds_stand() -> None:
+    points = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 3.0]])
+    beats = [BeatValues("move", 1, speed=1.0), BeatValues("hold", hold=1.5), BeatValues("move", 2, arrival=6.5)]
+    timeline, issues = plan_direction(points, False, beats, 0.25, nowhere)
+    assert issues == []
+    move, hold, arrive = timeline.segments
+    assert (move.start, move.end, move.speed) == (0.0, 2.0, 1.0)
+    assert (hold.start, hold.end, hold.speed) == (2.0, 3.5, 0.0)
+    assert arrive.end == 6.5 and arrive.speed == pytest.approx(1.0)
+    assert timeline.distance_at(np.array([1.0, 3.0, 5.0])) == pytest.approx([1.0, 2.0, 3.5])
+    assert timeline.stands() == [(2.0, 3.5), (6.5, np.inf)]
+
+
+def test_a_smooth_path_passes_through_its_points() -> None:
+    points = np.array([[0.0, 0.0], [3.0, 3.0], [6.0, 0.0], [3.0, -3.0]])
+    dense, marks = dense_path(points, True)
+    assert dense[marks] == pytest.approx(points)
+    assert len(dense) > 3 * len(points)
+
+
+def test_a_stop_in_the_middle_stands_two_natural_times() -> None:
+    points = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    beats = [BeatValues("move", 1, speed=1.0), BeatValues("stop"), BeatValues("move", 2, speed=1.0)]
+    timeline, _ = plan_direction(points, False, beats, 0.25, nowhere)
+    assert timeline.segments[1].end - timeline.segments[1].start == pytest.approx(0.5)
+
+
+# --------------------------------------------------------------------------- files and errors
+
+
+def test_direction_schema_is_current() -> None:
+    committed = (REPO / DIRECTION_SCHEMA_PATH).read_text(encoding="utf-8")
+    assert committed == direction_schema_text(), "run: python -m quadpipe.world.generate"
+
+
+def test_shipped_direction_files_load() -> None:
+    for path in sorted(DIRECTIONS.glob("*.yaml")):
+        if "direction:" in path.read_text() and "terrain" not in path.read_text() and "animals:" not in path.read_text():
+            assert load_direction(path).file.direction
+
+
+BAD_FILES = {
+    "no pace": ("beats: [{to: 1}]", "invalid-value", 1, "give exactly one of `speed`, `froude` and `at`"),
+    "typo": ("beats: [{to: 1, froude: 0.15, spead: 2}]", "unknown-key", 1, "'spead'"),
+    "wrong unit": ("beats: [{hold: 2 deg}]", "wrong-dimension", 1, "time"),
+    "bad stop": ("beats: [stpo]", "invalid-value", 1, "'stop'"),
+}
+
+
+@pytest.mark.parametrize("name", BAD_FILES)
+def test_bad_direction_files_give_located_errors(tmp_path: Path, name: str) -> None:
+    beats, code, _, words = BAD_FILES[name]
+    path = tmp_path / "bad.yaml"
+    path.write_text(f"schema: 1\ndirection:\n  dog:\n    path: {{points: [[0, 0, 0], [4 HP, 0, 0]]}}\n    {beats}\n")
+    with pytest.raises(QuadpipeError) as caught:
+        load_direction(path)
+    text = str(caught.value)
+    assert f"{path}:5:" in text and f"error {code}" in text and words in text
+
+
+@pytest.mark.parametrize(
+    ("beats", "code", "column"),
+    [
+        ("[{to: 4, froude: 0.15}]", "direction-bad-point", 18),
+        ("[{to: 1, at: 2 s}, {to: 2, at: 1 s}]", "direction-too-soon", 33),
+    ],
+)
+def test_unplayable_directions_are_located_and_write_nothing(
+    tmp_path: Path, cli, beats: str, code: str, column: int
+) -> None:
+    path = tmp_path / "shot.yaml"
+    path.write_text(
+        f"schema: 1\ndirection:\n  dog:\n    path: {{points: [[0, 0, 0], [4 HP, 0, 0], [5 HP, 0, 0]]}}\n    beats: {beats}\n"
+    )
+    out = tmp_path / "run.npz"
+    result = cli("simulate", "--controller", "direct", "--direction", str(path), "-s", "1", "-o", str(out))
+    assert result.returncode == 1
+    assert f"{path}:5:{column}: error {code}" in result.stderr
+    assert list(tmp_path.iterdir()) == [path]
+
+
+def test_a_direction_for_an_animal_the_scene_lacks_is_located(tmp_path: Path, cli) -> None:
+    path = write_direction(tmp_path, "cat", {"path": {"points": [[0, 0, 0], ["1 HP", 0, 0]]}, "beats": ["stop"]})
+    result = cli("simulate", "--controller", "direct", "--direction", str(path), "-s", "1", "-o", str(tmp_path / "r.npz"))
+    assert result.returncode == 1 and "error unknown-animal-ref: there is no animal 'cat'" in result.stderr
+    assert not (tmp_path / "r.npz").exists()
+
+
+# --------------------------------------------------------------------------- shots played
+
+
+STOP_AND_GO = {
+    "path": {"points": [[0, 0, 0], ["6 HP", 0, 0], ["10 HP", 0, 0], ["19 HP", 0, 0]]},
+    "beats": [{"to": 1, "froude": 0.15}, {"hold": "3 s"}, {"to": 2, "froude": 0.15}, {"to": 3, "froude": 0.6}, "stop"],
+}
+"""A walk of over 4 strides, a hold, a walk off from standing, a trot of over 4 strides, a stop."""
+
+
+@pytest.fixture(scope="module", params=["dog", "horse"])
+def stop_and_go(request, tmp_path_factory) -> DirectionReport:
+    animal = request.param
+    path = write_direction(tmp_path_factory.mktemp(animal), animal, STOP_AND_GO)
+    timeline_end = played_length(path)
+    return played(animal, path, None, timeline_end + TAIL_S)
+
+
+def played_length(path: Path) -> float:
+    """The shot's length for the animal of a direction file (its timeline's end), seconds."""
+    from quadpipe.sim.simulation import Simulation
+
+    name = next(iter(load_direction(path).file.direction))
+    simulation = Simulation.build(name, None, direction=path)
+    return simulation.setup.timelines[name].end
+
+
+def test_speed_is_tracked_on_every_long_stretch(stop_and_go: DirectionReport) -> None:
+    long = [b for b in stop_and_go.beats if b.kind == "move" and b.strides >= MEASURED_STRIDES]
+    assert len(long) == 2, "the walk and the trot are long enough to measure"
+    for beat in long:
+        assert abs(beat.speed_error) <= SPEED_TOLERANCE, format_direction(stop_and_go)
+
+
+def test_every_move_arrives_on_time(stop_and_go: DirectionReport) -> None:
+    for beat in (b for b in stop_and_go.beats if b.kind == "move"):
+        assert beat.arrival_error_s is not None, f"beat {beat.beat} never arrived"
+        assert abs(beat.arrival_error_s) <= ARRIVAL_TOLERANCE * stop_and_go.shot_s, format_direction(stop_and_go)
+
+
+def test_stands_have_four_feet_down_and_a_still_pelvis(stop_and_go: DirectionReport) -> None:
+    stands = [b for b in stop_and_go.beats if b.kind in ("hold", "end")]
+    assert len(stands) == 2
+    for beat in stands:
+        assert beat.feet_down == 1.0, format_direction(stop_and_go)
+        assert beat.still_speed_hp < STILL_HP, format_direction(stop_and_go)
+
+
+def test_the_report_is_json_ready(stop_and_go: DirectionReport) -> None:
+    assert json.loads(json.dumps(stop_and_go.to_dict()))["beats"][0]["kind"] == "move"
+
+
+def test_a_loop_at_a_walk_stays_on_the_path() -> None:
+    report = played("dog", None, str(DIRECTIONS / "figure_eight.yaml"), 27.0)
+    assert report.lateral_rms_hp is not None and report.lateral_rms_hp <= LOOP_LATERAL_HP, format_direction(report)
+
+
+def test_the_stairs_end_standing_on_the_landing() -> None:
+    report = played("dog", DIRECTIONS / "stairs_landing.yaml", "stairs", 17.0)
+    end = report.beats[-1]
+    assert report.beats[0].arrival_error_s is not None
+    assert end.feet_down == 1.0 and end.still_speed_hp < STILL_HP, format_direction(report)
