@@ -127,7 +127,7 @@ def test_bad_direction_files_give_located_errors(tmp_path: Path, name: str) -> N
     ("beats", "code", "column"),
     [
         ("[{to: 4, froude: 0.15}]", "direction-bad-point", 18),
-        ("[{to: 1, at: 2 s}, {to: 2, at: 1 s}]", "direction-too-soon", 33),
+        ("[{to: 1, at: 2 s}, {to: 2, at: 1 s}]", "direction-too-soon", 43),
     ],
 )
 def test_unplayable_directions_are_located_and_write_nothing(
