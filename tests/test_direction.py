@@ -3,6 +3,7 @@ controller playing shots: speeds, arrivals, stops and starts, a loop, the stairs
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 from pathlib import Path
@@ -11,7 +12,9 @@ import numpy as np
 import pytest
 import yaml
 
+from quadpipe.analysis import analyze_clip
 from quadpipe.analysis.direction import DirectionReport, direction_report, format_direction
+from quadpipe.clip.model import Clip
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.world.direction import load_direction
 from quadpipe.world.schema import DIRECTION_SCHEMA_PATH, direction_schema_text
@@ -49,15 +52,35 @@ def write_direction(folder: Path, animal: str, body: dict) -> Path:
 
 
 @functools.cache
-def played(animal: str, direction: Path | None, scene: str | None, seconds: float) -> DirectionReport:
-    """The direction report of a shot simulated under `direct` (once per session)."""
+def simulated(animal: str, direction: Path | None, scene: str | None, seconds: float) -> Clip:
+    """A shot simulated under `direct` (once per session); the animal must not fall."""
     from quadpipe.sim.simulation import simulate
 
     result = simulate(animal, "direct", seconds=seconds, scene=scene, direction=direction)
     assert not result.metrics["animals"][animal]["fell"], f"the {animal} fell"
-    report = direction_report(result.clip)
+    return result.clip
+
+
+def played(animal: str, direction: Path | None, scene: str | None, seconds: float) -> DirectionReport:
+    """The direction report of a shot simulated under `direct`."""
+    report = direction_report(simulated(animal, direction, scene, seconds))
     assert report is not None
     return report
+
+
+def between(clip: Clip, start: float, end: float) -> Clip:
+    """The frames of a clip from `start` to `end` seconds."""
+    frames = slice(round(start * clip.fps), round(end * clip.fps) + 1)
+    tracks = [
+        dataclasses.replace(
+            track,
+            positions=track.positions[frames],
+            rotations=track.rotations[frames],
+            foot_contacts=track.foot_contacts[frames],
+        )
+        for track in clip.animals
+    ]
+    return dataclasses.replace(clip, animals=tracks, props=[], sensors={})
 
 
 # --------------------------------------------------------------------------- the timeline
@@ -100,7 +123,11 @@ def test_direction_schema_is_current() -> None:
 
 def test_shipped_direction_files_load() -> None:
     for path in sorted(DIRECTIONS.glob("*.yaml")):
-        if "direction:" in path.read_text() and "terrain" not in path.read_text() and "animals:" not in path.read_text():
+        if (
+            "direction:" in path.read_text()
+            and "terrain" not in path.read_text()
+            and "animals:" not in path.read_text()
+        ):
             assert load_direction(path).file.direction
 
 
@@ -146,7 +173,9 @@ def test_unplayable_directions_are_located_and_write_nothing(
 
 def test_a_direction_for_an_animal_the_scene_lacks_is_located(tmp_path: Path, cli) -> None:
     path = write_direction(tmp_path, "cat", {"path": {"points": [[0, 0, 0], ["1 HP", 0, 0]]}, "beats": ["stop"]})
-    result = cli("simulate", "--controller", "direct", "--direction", str(path), "-s", "1", "-o", str(tmp_path / "r.npz"))
+    result = cli(
+        "simulate", "--controller", "direct", "--direction", str(path), "-s", "1", "-o", str(tmp_path / "r.npz")
+    )
     assert result.returncode == 1 and "error unknown-animal-ref: there is no animal 'cat'" in result.stderr
     assert not (tmp_path / "r.npz").exists()
 
@@ -213,3 +242,25 @@ def test_the_stairs_end_standing_on_the_landing() -> None:
     end = report.beats[-1]
     assert report.beats[0].arrival_error_s is not None
     assert end.feet_down == 1.0 and end.still_speed_hp < STILL_HP, format_direction(report)
+
+
+FORCED_GAITS = {
+    "path": {"points": [[0, 0, 0], ["10 HP", 0, 0], ["22 HP", 0, 0]]},
+    "beats": [{"to": 1, "froude": 0.3, "gait": "trot"}, {"to": 2, "froude": 0.55, "gait": "walk"}],
+}
+"""A trot slower than `auto` would trot, then a walk faster than it would walk."""
+
+
+def test_a_move_may_ask_for_its_gait(tmp_path: Path) -> None:
+    path = write_direction(tmp_path, "dog", FORCED_GAITS)
+    clip = simulated("dog", path, None, 10.0)
+    report = direction_report(clip)
+    assert report is not None
+    trot, walk = report.beats[:2]
+    assert trot.arrival_s is not None and walk.arrival_s is not None
+    settle = 1.0
+    gaits = [
+        analyze_clip(between(clip, start + settle, end)).animals[0].gait.name
+        for start, end in ((trot.asked_start_s, trot.arrival_s), (trot.arrival_s, walk.arrival_s))
+    ]
+    assert gaits == ["trot", "walk"]

@@ -36,7 +36,9 @@ def render(
     parameters: SetOpt = None,
     width: Annotated[int, typer.Option(help="Frame width in pixels.")] = 640,
     height: Annotated[int, typer.Option(help="Frame height in pixels.")] = 480,
-    overlays: Annotated[str, typer.Option(help="Overlays to draw: contacts,trail or none.")] = "contacts,trail",
+    overlays: Annotated[
+        str, typer.Option(help="Overlays to draw: contacts,trail,path (a directed clip's path) or none.")
+    ] = "contacts,trail,path",
     look: LookOpt = Look.body,
 ) -> None:
     """Render a clip headless (MuJoCo's renderer) to MP4, GIF, or a PNG contact sheet.

@@ -134,7 +134,7 @@ def _beat_values(beat: Move | Hold | str, path: tuple[Any, ...], values: Values)
         speed = values.get(path + ("speed",))
         if beat.froude is not None:
             speed = math.sqrt(beat.froude * units.STANDARD_GRAVITY * values.hp)
-        return BeatValues("move", beat.to, speed, values.get(path + ("at",)), where=path)
+        return BeatValues("move", beat.to, speed, values.get(path + ("at",)), gait=beat.gait, where=path)
     if isinstance(beat, Hold):
         return BeatValues("hold", hold=values[path + ("hold",)], where=path)
     return BeatValues("stop", where=path)

@@ -67,6 +67,14 @@ class Move(_Model):
         Field(None, description=described("When the animal arrives at `to`, from the start of the shot.", TIME)),
     ]
 
+    gait: Annotated[
+        Literal["auto", "walk", "trot", "gallop"],
+        Field(
+            "auto",
+            description="`auto`: the species' gait for the speed (its walk, trot or amble, gallop); or the gait to use whatever the speed: `walk`, `trot` (the species' running gait: an amble for a species that does not trot) or `gallop` (a trot for a species that does not gallop).",
+        ),
+    ]
+
     @model_validator(mode="after")
     def _one_pace(self) -> Move:
         if sum(value is not None for value in (self.speed, self.froude, self.at)) != 1:

@@ -74,6 +74,9 @@ CARROT_HP = 2.5
 STAND_RAMP_NATURAL = 1.0
 """How long the gait takes to fade into a stand (and back), natural times."""
 
+FORCED_GAITS = {"walk": (0.0, 0.0), "trot": (1.0, 0.0), "gallop": (1.0, 1.0)}
+"""The gaits a move may ask for, as `auto_gait`'s shares: (running gait, gallop)."""
+
 DIRECTION_DIGITS = 7
 """Significant digits of the numbers of a direction's expressions (a micrometre on a 10 m path)."""
 
@@ -85,14 +88,24 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
     - `path_goal`: the point `CARROT_HP` further along, which the animal steers toward;
     - `path_tangent`: the path's direction at `path_point` (a unit vector);
     - `path_speed`: the asked speed now (0 while standing);
-    - `path_stand`: 0 while moving, 1 while standing, a smooth ramp between.
+    - `path_stand`: 0 while moving, 1 while standing, a smooth ramp between;
+    - `path_auto`: 1 while the gait follows the speed, 0 while a move asks for one;
+      `path_run` and `path_gallop`: the running gait's and the gallop's shares it asks for
+      (see `FORCED_GAITS`), each ramping over the same time as a stand.
     """
+    ramp = STAND_RAMP_NATURAL * natural_time
+    gaits = [(seg.start, FORCED_GAITS.get(seg.gait)) for seg in timeline.segments if seg.kind == "move"]
+    shares = [(when, (1.0, 0.0, 0.0) if forced is None else (0.0, *forced)) for when, forced in gaits]
     return {
         "path_point": timed_points_text(timeline, 0.0),
         "path_goal": timed_points_text(timeline, CARROT_HP * hp),
         "path_tangent": _tangent_text(timeline),
         "path_speed": _steps_text([(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"),
-        "path_stand": _stand_text(timeline.stands(), STAND_RAMP_NATURAL * natural_time),
+        "path_stand": _stand_text(timeline.stands(), ramp),
+        **{
+            name: _ramps_text([(when, share[k]) for when, share in shares] or [(0.0, float(k == 0))], ramp)
+            for k, name in enumerate(("path_auto", "path_run", "path_gallop"))
+        },
     }
 
 
@@ -157,6 +170,18 @@ def _stand_text(stands: Sequence[tuple[float, float]], ramp: float) -> str:
         if np.isfinite(end):
             terms.append(
                 f"-smoothstep({number_text(end, DIRECTION_DIGITS)} s, {number_text(end + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+            )
+    return balanced_sum(terms)
+
+
+def _ramps_text(values: Sequence[tuple[float, float]], ramp: float) -> str:
+    """A value that changes at given times, as text: `values[0]`, then a smooth ramp of `ramp`
+    seconds to each next value from its time."""
+    terms = [number_text(values[0][1], DIRECTION_DIGITS)]
+    for (_, before), (when, after) in zip(values, values[1:]):
+        if after != before:
+            terms.append(
+                f"{number_text(after - before, DIRECTION_DIGITS)} * smoothstep({number_text(when, DIRECTION_DIGITS)} s, {number_text(when + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
             )
     return balanced_sum(terms)
 

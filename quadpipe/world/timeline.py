@@ -42,6 +42,7 @@ class Segment:
         kind: `move`, `hold` or `stop`.
         beat: the beat's index in the file.
         point: the path point a move ends at (-1 for a stand).
+        gait: the gait a move asks for (`auto`, `walk`, `trot`, `gallop`; `auto` for a stand).
     """
 
     kind: str
@@ -52,6 +53,7 @@ class Segment:
     s1: float
     speed: float
     point: int = -1
+    gait: str = "auto"
 
 
 @dataclass
@@ -134,14 +136,15 @@ def dense_path(points: np.ndarray, smooth: bool) -> tuple[np.ndarray, list[int]]
 
 @dataclass(frozen=True)
 class BeatValues:
-    """One beat with its values in SI: a move (`point`, and `speed` or `arrival`), a hold
-    (`hold` seconds) or a stop (`kind` only). `where` locates it for messages."""
+    """One beat with its values in SI: a move (`point`, `speed` or `arrival`, and `gait`), a
+    hold (`hold` seconds) or a stop (`kind` only). `where` locates it for messages."""
 
     kind: str
     point: int = 0
     speed: float | None = None
     arrival: float | None = None
     hold: float = 0.0
+    gait: str = "auto"
     where: tuple[Any, ...] = ()
 
 
@@ -188,7 +191,7 @@ def plan_direction(
                 continue
             speed = (target - distance) / (beat.arrival - now) if beat.arrival is not None else float(beat.speed or 0)
             end = now + (target - distance) / speed
-            timeline.segments.append(Segment("move", index, now, end, distance, target, speed, beat.point))
+            timeline.segments.append(Segment("move", index, now, end, distance, target, speed, beat.point, beat.gait))
             now, at_point, distance = end, beat.point, target
         else:
             length = beat.hold if beat.kind == "hold" else STOP_TIME_NATURAL * natural_time
