@@ -13,12 +13,12 @@ import pytest
 import yaml
 
 from quadpipe.analysis import analyze_clip
-from quadpipe.analysis.direction import DirectionReport, direction_report, format_direction
+from quadpipe.analysis.direction import DirectionReport, direction_reports, format_direction
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.world.direction import load_direction
 from quadpipe.world.schema import DIRECTION_SCHEMA_PATH, direction_schema_text
-from quadpipe.world.timeline import BeatValues, dense_path, plan_direction
+from quadpipe.world.timeline import BeatValues, dense_path, follower_timeline, plan_direction
 from tests.conftest import FIXTURES, REPO
 
 DIRECTIONS = FIXTURES / "direction"
@@ -63,8 +63,7 @@ def simulated(animal: str, direction: Path | None, scene: str | None, seconds: f
 
 def played(animal: str, direction: Path | None, scene: str | None, seconds: float) -> DirectionReport:
     """The direction report of a shot simulated under `direct`."""
-    report = direction_report(simulated(animal, direction, scene, seconds))
-    assert report is not None
+    (report,) = direction_reports(simulated(animal, direction, scene, seconds))
     return report
 
 
@@ -111,6 +110,16 @@ def test_a_stop_in_the_middle_stands_two_natural_times() -> None:
     beats = [BeatValues("move", 1, speed=1.0), BeatValues("stop"), BeatValues("move", 2, speed=1.0)]
     timeline, _ = plan_direction(points, False, beats, 0.25, nowhere)
     assert timeline.segments[1].end - timeline.segments[1].start == pytest.approx(0.5)
+
+
+def test_a_follower_keeps_behind_and_aside_on_the_leaders_beats() -> None:
+    points = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]])
+    leader, _ = plan_direction(points, False, [BeatValues("move", 2, speed=1.0)], 0.25, nowhere)
+    follower = follower_timeline(leader, 2.0, 1.0)
+    assert follower.segments == leader.segments
+    assert follower.points[0] == pytest.approx([-2.0, 1.0])
+    assert follower.points[-1] == pytest.approx([3.0, 4.0])
+    assert follower.point_at(follower.distance_at(np.array([0.0])))[0] == pytest.approx([-2.0, 1.0])
 
 
 # --------------------------------------------------------------------------- files and errors
@@ -180,6 +189,17 @@ def test_a_direction_for_an_animal_the_scene_lacks_is_located(tmp_path: Path, cl
     assert not (tmp_path / "r.npz").exists()
 
 
+def test_following_an_animal_without_a_path_is_located(tmp_path: Path) -> None:
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(
+        "schema: 1\nname: pair\nanimals: [{name: a, at: [0, 0]}, {name: b, at: [0, 2 HP]}]\n"
+        "direction:\n  b: {follow: a}\n"
+    )
+    with pytest.raises(QuadpipeError) as caught:
+        simulated("dog", None, str(scene), 0.1)
+    assert f"{scene}:5:" in str(caught.value) and "error direction-bad-leader" in str(caught.value)
+
+
 # --------------------------------------------------------------------------- shots played
 
 
@@ -207,6 +227,7 @@ def played_length(path: Path) -> float:
     return simulation.setup.timelines[name].end
 
 
+@pytest.mark.slow
 def test_speed_is_tracked_on_every_long_stretch(stop_and_go: DirectionReport) -> None:
     long = [b for b in stop_and_go.beats if b.kind == "move" and b.strides >= MEASURED_STRIDES]
     assert len(long) == 2, "the walk and the trot are long enough to measure"
@@ -214,12 +235,14 @@ def test_speed_is_tracked_on_every_long_stretch(stop_and_go: DirectionReport) ->
         assert abs(beat.speed_error) <= SPEED_TOLERANCE, format_direction(stop_and_go)
 
 
+@pytest.mark.slow
 def test_every_move_arrives_on_time(stop_and_go: DirectionReport) -> None:
     for beat in (b for b in stop_and_go.beats if b.kind == "move"):
         assert beat.arrival_error_s is not None, f"beat {beat.beat} never arrived"
         assert abs(beat.arrival_error_s) <= ARRIVAL_TOLERANCE * stop_and_go.shot_s, format_direction(stop_and_go)
 
 
+@pytest.mark.slow
 def test_stands_have_four_feet_down_and_a_still_pelvis(stop_and_go: DirectionReport) -> None:
     stands = [b for b in stop_and_go.beats if b.kind in ("hold", "end")]
     assert len(stands) == 2
@@ -228,15 +251,18 @@ def test_stands_have_four_feet_down_and_a_still_pelvis(stop_and_go: DirectionRep
         assert beat.still_speed_hp < STILL_HP, format_direction(stop_and_go)
 
 
+@pytest.mark.slow
 def test_the_report_is_json_ready(stop_and_go: DirectionReport) -> None:
     assert json.loads(json.dumps(stop_and_go.to_dict()))["beats"][0]["kind"] == "move"
 
 
+@pytest.mark.slow
 def test_a_loop_at_a_walk_stays_on_the_path() -> None:
     report = played("dog", None, str(DIRECTIONS / "figure_eight.yaml"), 27.0)
     assert report.lateral_rms_hp is not None and report.lateral_rms_hp <= LOOP_LATERAL_HP, format_direction(report)
 
 
+@pytest.mark.slow
 def test_the_stairs_end_standing_on_the_landing() -> None:
     report = played("dog", DIRECTIONS / "stairs_landing.yaml", "stairs", 17.0)
     end = report.beats[-1]
@@ -251,11 +277,11 @@ FORCED_GAITS = {
 """A trot slower than `auto` would trot, then a walk faster than it would walk."""
 
 
+@pytest.mark.slow
 def test_a_move_may_ask_for_its_gait(tmp_path: Path) -> None:
     path = write_direction(tmp_path, "dog", FORCED_GAITS)
     clip = simulated("dog", path, None, 10.0)
-    report = direction_report(clip)
-    assert report is not None
+    (report,) = direction_reports(clip)
     trot, walk = report.beats[:2]
     assert trot.arrival_s is not None and walk.arrival_s is not None
     settle = 1.0
@@ -264,3 +290,28 @@ def test_a_move_may_ask_for_its_gait(tmp_path: Path) -> None:
         for start, end in ((trot.asked_start_s, trot.arrival_s), (trot.arrival_s, walk.arrival_s))
     ]
     assert gaits == ["trot", "walk"]
+
+
+HERD_SECONDS = 18.0
+"""The herd scene's shot (about 15 s for the dog) and its final stand."""
+
+HERD_GAP_HP = 1.0
+"""Followers never come closer than this to the leader, pelvis to pelvis, pelvis heights."""
+
+
+@pytest.mark.slow
+def test_a_herd_follows_its_leader_and_keeps_its_distance() -> None:
+    from quadpipe.anatomy import roles
+
+    clip = simulated("dog", None, "herd", HERD_SECONDS)
+    reports = {report.animal: report for report in direction_reports(clip)}
+    assert set(reports) == {"leader", "left", "right"}
+    for report in reports.values():
+        moves = [b for b in report.beats if b.kind == "move"]
+        assert all(b.arrival_error_s is not None for b in moves), format_direction(report)
+        assert all(abs(b.arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s for b in moves), format_direction(report)
+        assert report.beats[-1].feet_down == 1.0, format_direction(report)
+    pelvis = {a.name: a.positions[:, roles.ROLES.index("pelvis"), :2] / a.pelvis_height for a in clip.animals}
+    for follower in ("left", "right"):
+        gap = np.linalg.norm(pelvis[follower] - pelvis["leader"], axis=1)
+        assert gap.min() >= HERD_GAP_HP, f"{follower} came within {gap.min():.2f} HP of the leader"

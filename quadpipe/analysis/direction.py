@@ -1,7 +1,7 @@
 """How well a directed animal played its shot: path error, arrival times, speeds and stands.
 
-A clip baked with a direction carries its timeline in its metadata (`DIRECTION_KEY`, see
-`quadpipe.world.timeline`). `direction_report` follows the animal's pelvis along the path
+A clip baked with a direction carries its timelines in its metadata (`DIRECTION_KEY`, see
+`quadpipe.world.timeline`). `direction_reports` follows each directed animal's pelvis along the path
 (its projection, searched near the last one, so that a figure-eight's crossing does not
 jump branches) and measures, per beat: for a move, when the pelvis reached its end against
 when it was asked to, its mean speed against the asked one and its lateral error; for a
@@ -17,14 +17,18 @@ from typing import Any
 import numpy as np
 
 from quadpipe.anatomy import roles
-from quadpipe.clip.model import Clip
-from quadpipe.world.timeline import DIRECTED_KEY, DIRECTION_KEY, Segment, Timeline
+from quadpipe.clip.model import AnimalTrack, Clip
+from quadpipe.world.timeline import DIRECTION_KEY, Segment, Timeline, timelines_from_json
 
 GRAVITY = 9.80665
 """Standard gravity, m/s^2 (natural time sqrt(HP / g))."""
 
 SETTLE_NATURAL = 2.0
 """A stand is measured from this many natural times after it starts (it settles first)."""
+
+REACHED_HP = 0.1
+"""A mark on the path counts as reached within this distance of it, pelvis heights (an animal
+that brakes for a stop stands about there)."""
 
 SEARCH_BEHIND_HP = 1.0
 SEARCH_AHEAD_HP = 3.0
@@ -39,7 +43,7 @@ class BeatFigures:
         kind: `move`, `hold` or `stop` (`end` for the stand after the last beat).
         beat: its index among the beats (-1 for `end`).
         asked_start_s, asked_end_s: when it was asked to start and end.
-        arrival_s: a move: when the pelvis reached its end (None: never).
+        arrival_s: a move: when the pelvis reached its end, within `REACHED_HP` (None: never).
         arrival_error_s: a move: arrival_s - asked_end_s.
         asked_speed_hp: a move: the asked speed, HP per natural time.
         speed_error: a move: its mean speed (its length over the time the pelvis took) / asked - 1.
@@ -47,6 +51,8 @@ class BeatFigures:
         lateral_rms_hp: a move: RMS distance of the pelvis from the path while on it, HP.
         feet_down: a stand: fraction of its settled frames with all four feet down.
         still_speed_hp: a stand: highest pelvis speed over its settled frames, HP per natural time.
+        stand_error_hp: a stand: how far past its mark on the path the pelvis stands (negative:
+            short of it), mean over its settled frames, HP.
     """
 
     kind: str
@@ -61,6 +67,7 @@ class BeatFigures:
     lateral_rms_hp: float | None = None
     feet_down: float | None = None
     still_speed_hp: float | None = None
+    stand_error_hp: float | None = None
 
 
 @dataclass(frozen=True)
@@ -84,19 +91,25 @@ class DirectionReport:
         return asdict(self)
 
 
-def direction_report(clip: Clip) -> DirectionReport | None:
-    """The direction report of a clip, None when it carries no direction."""
+def direction_reports(clip: Clip) -> tuple[DirectionReport, ...]:
+    """The direction report of each directed animal of a clip (none without a direction)."""
     if DIRECTION_KEY not in clip.metadata:
-        return None
-    timeline = Timeline.from_json(clip.metadata[DIRECTION_KEY])
-    track = next(a for a in clip.animals if a.name == clip.metadata.get(DIRECTED_KEY, clip.animals[0].name))
+        return ()
+    tracks = {track.name: track for track in clip.animals}
+    timelines = timelines_from_json(clip.metadata[DIRECTION_KEY])
+    return tuple(_report(clip, tracks[name], timeline) for name, timeline in timelines.items() if name in tracks)
+
+
+def _report(clip: Clip, track: AnimalTrack, timeline: Timeline) -> DirectionReport:
+    """One directed animal's report."""
     hp = track.pelvis_height
     natural = math.sqrt(hp / GRAVITY)
     pelvis = track.positions[:, roles.ROLES.index("pelvis"), :2]
     times = np.arange(len(pelvis)) / clip.fps
     along, aside = follow(timeline, pelvis, hp)
     measure = _Measure(timeline, times, along, aside, pelvis, track.foot_contacts, hp, natural)
-    stands = [Segment("end", -1, timeline.end, math.inf, 0.0, 0.0, 0.0)]
+    final = timeline.segments[-1].s1 if timeline.segments else 0.0
+    stands = [Segment("end", -1, timeline.end, math.inf, final, final, 0.0)]
     beats = tuple(measure.beat(segment) for segment in [*timeline.segments, *stands])
     later = [k for k, seg in enumerate(timeline.segments) if seg.kind == "move"][1:]
     errors = np.concatenate([measure.lateral(timeline.segments[k]) for k in later]) if later else np.array([])
@@ -141,8 +154,8 @@ class _Measure:
     natural: float
 
     def reached(self, distance: float) -> float | None:
-        """When the pelvis first reached `distance` along the path (None: never)."""
-        done = np.nonzero(self.along >= distance - 1e-9)[0]
+        """When the pelvis first came within `REACHED_HP` of `distance` along the path (None: never)."""
+        done = np.nonzero(self.along >= distance - REACHED_HP * self.hp)[0]
         return float(self.times[done[0]]) if len(done) else None
 
     def lateral(self, segment: Segment) -> np.ndarray:
@@ -191,7 +204,17 @@ class _Measure:
             segment.end,
             feet_down=float(feet.mean()),
             still_speed_hp=float(speeds.max() * self.natural / self.hp),
+            stand_error_hp=float(self._past_mark(frames, segment.s1) / self.hp),
         )
+
+    def _past_mark(self, frames: np.ndarray, mark: float) -> float:
+        """How far past `mark` (a distance along the path) the pelvis is over `frames`, on
+        average, metres: along the path, or beyond its end along its last piece."""
+        points = self.timeline.points
+        last = points[-1] - points[-2]
+        beyond = np.einsum("ij,j->i", self.pelvis[frames] - points[-1], last / np.linalg.norm(last))
+        along = self.along[frames] + np.where(self.along[frames] >= self.timeline.lengths[-1] - 1e-9, beyond, 0.0)
+        return float(np.mean(along) - mark)
 
 
 def format_direction(report: DirectionReport) -> str:
@@ -199,7 +222,7 @@ def format_direction(report: DirectionReport) -> str:
     lines = [
         f"direction of {report.animal}: shot {report.shot_s:.2f} s, lateral error after the first move "
         f"{_figure(report.lateral_rms_hp, 3)} HP RMS",
-        "  beat  kind  asked(s)       arrived(s)  error(% shot)  speed(HP/T)  speed err(%)  lateral(HP)  feet down  still(HP/T)",
+        "  beat  kind  asked(s)       arrived(s)  error(% shot)  speed(HP/T)  speed err(%)  lateral(HP)  feet down  still(HP/T)  past mark(HP)",
     ]
     for b in report.beats:
         error = None if b.arrival_error_s is None else 100 * b.arrival_error_s / report.shot_s
@@ -207,7 +230,8 @@ def format_direction(report: DirectionReport) -> str:
             f"  {b.beat:>4}  {b.kind:<4}  {b.asked_start_s:5.2f}-{b.asked_end_s:<7.2f}  {_figure(b.arrival_s):>10}  "
             f"{_figure(error, 1):>13}  {_figure(b.asked_speed_hp, 3):>11}  "
             f"{_figure(None if b.speed_error is None else 100 * b.speed_error, 1):>12}  "
-            f"{_figure(b.lateral_rms_hp, 3):>11}  {_figure(b.feet_down):>9}  {_figure(b.still_speed_hp, 3):>11}"
+            f"{_figure(b.lateral_rms_hp, 3):>11}  {_figure(b.feet_down):>9}  {_figure(b.still_speed_hp, 3):>11}  "
+            f"{_figure(b.stand_error_hp):>13}"
         )
     return "\n".join(lines)
 

@@ -224,13 +224,13 @@ def _leg_dict(leg: LegGait, fps: float, hp: float) -> dict[str, Any]:
 @dataclass(frozen=True)
 class GaitReport:
     """The gait analysis of a clip: one `AnimalGait` per analysed animal, their posture when
-    measured, and how the directed animal played its direction when the clip has one."""
+    measured, and how each directed animal played its direction when the clip has one."""
 
     fps: float
     frame_count: int
     animals: tuple[AnimalGait, ...] = field(default_factory=tuple)
     posture: PostureReport | None = None
-    direction: DirectionReport | None = None
+    directions: tuple[DirectionReport, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready report (each animal's `posture` too, when measured)."""
@@ -243,7 +243,7 @@ class GaitReport:
             "duration_s": max(0, self.frame_count - 1) / self.fps,
             "animals": animals,
         }
-        return report | ({"direction": self.direction.to_dict()} if self.direction is not None else {})
+        return report | ({"directions": [d.to_dict() for d in self.directions]} if self.directions else {})
 
     def to_json(self) -> str:
         """The report as a JSON document (what `quadpipe analyze -o` writes)."""

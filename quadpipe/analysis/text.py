@@ -17,8 +17,7 @@ def format_report(report: GaitReport) -> str:
     for animal in report.animals:
         posture = postures.get(animal.name)
         sections.append(_format_animal(animal) + ("" if posture is None else "\n" + format_posture(posture)))
-    if report.direction is not None:
-        sections.append(format_direction(report.direction))
+    sections += [format_direction(direction) for direction in report.directions]
     return "\n\n".join(sections)
 
 

@@ -106,7 +106,7 @@ def analyze(
     import dataclasses
 
     from quadpipe.analysis import analyze_clip, check_diagram_path, format_report, posture_report
-    from quadpipe.analysis.direction import direction_report
+    from quadpipe.analysis.direction import direction_reports
     from quadpipe.core.outputs import check_distinct, check_suffix
     from quadpipe.exporters.npz import load_clip
 
@@ -120,7 +120,7 @@ def analyze(
     report = dataclasses.replace(
         analyze_clip(baked, animal),
         posture=posture_report(baked, animal, *(() if settle is None else (settle,))),
-        direction=direction_report(baked),
+        directions=direction_reports(baked),
     )
     typer.echo(report.to_json().rstrip("\n") if fmt == OutputFormat.json else format_report(report))
     write_gait_files(report, output, diagram)

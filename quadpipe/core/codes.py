@@ -214,7 +214,7 @@ GROUPS: tuple[CodeGroup, ...] = (
             "throw-out-of-reach": "a throw too slow to reach its target from its direction",
             "direction-bad-point": "a direction's move to a path point that does not exist, or that is not ahead of the animal",
             "direction-too-soon": "a direction's move asked to arrive no later than it starts",
-            "direction-several-animals": "a direction for more than one animal (one controller drives a scene's animals: direct one per scene)",
+            "direction-bad-leader": "a direction's `follow` naming an animal without a path and beats of its own",
         },
     ),
     CodeGroup(

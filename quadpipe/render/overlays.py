@@ -15,7 +15,7 @@ from quadpipe.clip.kinematics import rotate
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import QuadpipeError, did_you_mean
 from quadpipe.render.poses import clip_scale, finite_hold
-from quadpipe.world.timeline import DIRECTION_KEY, Timeline
+from quadpipe.world.timeline import DIRECTION_KEY, timelines_from_json
 
 if TYPE_CHECKING:
     import mujoco
@@ -129,16 +129,22 @@ def trail_overlay(clip: Clip) -> Overlay:
 
 
 def path_overlay(clip: Clip) -> Overlay:
-    """A directed clip's path (docs/direction.md) as a blue line on the floor plane, every
+    """A directed clip's paths (docs/direction.md) as blue lines on the floor plane, every
     frame; nothing for a clip without a direction."""
-    points = np.zeros((0, 2))
-    if DIRECTION_KEY in clip.metadata:
-        points = Timeline.from_json(clip.metadata[DIRECTION_KEY]).points
+    timelines = timelines_from_json(clip.metadata[DIRECTION_KEY]) if DIRECTION_KEY in clip.metadata else {}
     lift = PATH_LIFT_HP * clip_scale(clip)
-    line = np.column_stack([points, np.full(len(points), lift)])
-    starts = np.broadcast_to(line[:-1], (clip.frame_count, max(len(line) - 1, 0), 3))
-    ends = np.broadcast_to(line[1:], starts.shape)
-    return Overlay("path", "line", starts, ends, PATH_RGBA, PATH_WIDTH_HP * clip_scale(clip))
+    lines = [np.column_stack([t.points, np.full(len(t.points), lift)]) for t in timelines.values()]
+    starts = np.concatenate([line[:-1] for line in lines]) if lines else np.zeros((0, 3))
+    ends = np.concatenate([line[1:] for line in lines]) if lines else np.zeros((0, 3))
+    frames = (clip.frame_count, len(starts), 3)
+    return Overlay(
+        "path",
+        "line",
+        np.broadcast_to(starts, frames),
+        np.broadcast_to(ends, frames),
+        PATH_RGBA,
+        PATH_WIDTH_HP * clip_scale(clip),
+    )
 
 
 BUILTIN_OVERLAYS: dict[str, Callable[[Clip], Overlay]] = {

@@ -43,6 +43,8 @@ class SceneSetup:
         throws: the throws in declaration order (random series expanded).
         prop_velocities: prop body name -> its start velocity, for props that move at the start.
         timelines: animal name -> its direction played out in time (see `quadpipe.world.timeline`).
+        directions: animal name -> the controller parameters that play its timeline
+            (`quadpipe.world.goals.direction_parameters`); see `parameter_groups`.
     """
 
     scene: SceneSpec
@@ -53,6 +55,16 @@ class SceneSetup:
     throws: list[ThrowPlan] = field(default_factory=list)
     prop_velocities: dict[str, np.ndarray] = field(default_factory=dict)
     timelines: dict[str, Timeline] = field(default_factory=dict)
+    directions: dict[str, dict[str, str]] = field(default_factory=dict)
+
+    def parameter_groups(self) -> list[tuple[list[Placement], dict[str, str]]]:
+        """The animals that one controller runtime drives together, with the parameters the
+        scene offers them: each directed animal alone, with its direction's, and the others
+        together, with the goals. One group holding every animal when none is directed, or
+        when the only animal is (its direction is then among `goal_parameters` too)."""
+        rest = [p for p in self.placements if p.name not in self.directions]
+        groups = [([p], self.goal_parameters | self.directions[p.name]) for p in self.placements if p not in rest]
+        return groups + ([(rest, self.goal_parameters)] if rest else [])
 
     def goal_places(self) -> dict[str, Location]:
         """Where each goal is written in the scene file, for messages about the parameter it sets."""
@@ -131,11 +143,19 @@ def build_scene(
     add_thrown(spec, throws, tau, hp)
     goals = {name: goal_text(scene, values, name) for name in scene.file.goals}
     timelines = scene_timelines(scene, values, [placement.name for placement in placements], scale, direction)
-    for timeline in timelines.values():
-        goals |= direction_parameters(timeline, hp, math.sqrt(hp / units.STANDARD_GRAVITY))
-    return SceneSetup(
-        scene, spec, placements, [placement.heading for placement in placements], goals, throws, velocities, timelines
-    )
+    directions = {
+        p.name: direction_parameters(timelines[p.name], *_sizes(p.built)) for p in placements if p.name in timelines
+    }
+    if len(placements) == 1:
+        goals |= directions.get(placements[0].name, {})
+    headings = [placement.heading for placement in placements]
+    return SceneSetup(scene, spec, placements, headings, goals, throws, velocities, timelines, directions)
+
+
+def _sizes(built: BuiltAnimal) -> tuple[float, float]:
+    """An animal's pelvis height (m) and natural time sqrt(HP / g) (s)."""
+    hp = built.animal.pelvis_height
+    return hp, math.sqrt(hp / units.STANDARD_GRAVITY)
 
 
 def _slots(scene: SceneSpec, species: Sequence[BuiltAnimal] | BuiltAnimal) -> list[_Slot]:

@@ -19,7 +19,7 @@ from quadpipe.quantities import units
 from quadpipe.world.direction_format import AnimalDirection, DirectionFile, Hold, Move
 from quadpipe.world.format import SCHEMA_VERSION
 from quadpipe.world.loading import SceneSpec, file_order, quantity_issues, validate_part
-from quadpipe.world.timeline import BeatValues, Timeline, plan_direction
+from quadpipe.world.timeline import BeatValues, Timeline, follower_timeline, plan_direction
 from quadpipe.world.values import Values
 
 
@@ -76,9 +76,9 @@ def scene_timelines(
         direction: a direction file that replaces the scene's `direction:`.
 
     Raises:
-        QuadpipeError: a direction for an animal the scene does not have, for more than one
-            animal, a move to a point that does not exist or behind the animal, an arrival
-            no later than its beat starts.
+        QuadpipeError: a direction for an animal the scene does not have, a move to a
+            point that does not exist or behind the animal, an arrival no later than its
+            beat starts, an animal following one without a path of its own.
     """
     source: SceneSpec | DirectionSpec = direction or scene
     found = direction.file.direction if direction is not None else scene.file.direction
@@ -98,21 +98,34 @@ def scene_timelines(
                 )
             )
             continue
-        timeline, found_issues = _play(animal, path, evaluated, natural_time, source)
-        timelines[name] = timeline
-        issues += found_issues
-    if len(found) > 1 and not issues:
-        issues.append(
-            Issue(
-                "direction-several-animals",
-                f"this direction drives {len(found)} animals; one controller drives a scene's animals, so a direction drives one",
-                source.locate(("direction",)),
-                "direct one animal per scene",
-            )
-        )
+        if animal.follow is None:
+            timeline, found_issues = _play(animal, path, evaluated, natural_time, source)
+            timelines[name] = timeline
+            issues += found_issues
+    for name, animal in found.items():
+        if animal.follow is not None and name in names:
+            leader = timelines.get(animal.follow)
+            if leader is None:
+                issues.append(_bad_leader(name, animal, found, source.locate(("direction", name, "follow"))))
+                continue
+            values_of = ("direction", name)
+            behind, aside = evaluated.get(values_of + ("behind",), 0.0), evaluated.get(values_of + ("aside",), 0.0)
+            timelines[name] = follower_timeline(leader, behind, aside)
     if issues:
         raise QuadpipeError(sorted(issues, key=file_order))
     return timelines
+
+
+def _bad_leader(name: str, animal: AnimalDirection, found: dict[str, AnimalDirection], where: Location) -> Issue:
+    """The issue of a `follow` naming no animal with a path and beats of its own."""
+    leaders = [other for other, item in found.items() if item.follow is None]
+    problem = "follows another animal itself" if animal.follow in found else "has no direction here"
+    return Issue(
+        "direction-bad-leader",
+        f"{name} follows {animal.follow!r}, which {problem}: a leader needs a path and beats of its own",
+        where,
+        f"follow one of: {', '.join(leaders)}" if leaders else "give the leader a `path` and `beats`",
+    )
 
 
 def _play(
@@ -122,7 +135,8 @@ def _play(
     natural_time: float,
     source: SceneSpec | DirectionSpec,
 ) -> tuple[Timeline, list[Issue]]:
-    """One animal's direction, evaluated and played out."""
+    """One animal's own direction (a path and beats), evaluated and played out."""
+    assert animal.path is not None and animal.beats is not None, "checked by `AnimalDirection._one_kind`"
     points = values.items(path + ("path", "points"), len(animal.path.points))
     beats = [_beat_values(beat, path + ("beats", k), values) for k, beat in enumerate(animal.beats)]
     return plan_direction(points[:, :2], animal.path.smooth, beats, natural_time, source.locate)

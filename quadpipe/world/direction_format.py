@@ -18,6 +18,7 @@ from quadpipe.quantities import fields, units
 from quadpipe.quantities.expressions import SCALAR, Expect
 from quadpipe.quantities.fields import NON_NEGATIVE, POSITIVE, Items, described, quantity
 
+LENGTH = fields.with_example(fields.LENGTH, "3 HP")
 POINT = fields.with_example(fields.POINT, "[4 HP, 0, 0]")
 SPEED = Expect(SCALAR, (units.VELOCITY,), "velocity", "froude_speed(0.15)")
 TIME = Expect(SCALAR, (units.TIME,), "time", "6 s")
@@ -104,19 +105,49 @@ Beat = Annotated[
 
 
 class AnimalDirection(_Model):
-    """One animal's shot: its path and its beats, played in order from the start."""
+    """One animal's shot: its own path and beats, played in order from the start; or another
+    animal's followed (`follow`): its path shifted back and to the side, and its beats."""
 
-    path: Annotated[DirectionPath, Field(description="The path.")]
+    path: Annotated[DirectionPath | None, Field(None, description="The path (with `beats`).")]
     beats: Annotated[
-        list[Beat],
+        list[Beat] | None,
         Field(
+            None,
             min_length=1,
             description="What the animal does, in order: moves (`{to: 2, speed: froude_speed(0.15)}`, `{to: 3, at: 8 s}`), holds (`{hold: 2 s}`), and `stop` (stand still to the end; the shot also ends standing after its last move).",
         ),
     ]
+    follow: Annotated[
+        str | None,
+        Field(
+            None,
+            description="Instead of a path and beats: the animal followed, one with a `path` and `beats` of its own in this direction.",
+        ),
+    ]
+    behind: Annotated[
+        quantity(LENGTH, NON_NEGATIVE),
+        Field("3 HP", description=described("With `follow`: how far behind it, along its path.", LENGTH)),
+    ]
+    aside: Annotated[
+        quantity(LENGTH),
+        Field(
+            0,
+            description=described(
+                "With `follow`: how far to its left (negative: to its right), across its path.", LENGTH
+            ),
+        ),
+    ]
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> AnimalDirection:
+        if self.follow is None and (self.path is None or self.beats is None):
+            raise ValueError("give a `path` and `beats`, or `follow` (an animal to follow)")
+        if self.follow is not None and (self.path is not None or self.beats is not None):
+            raise ValueError("a follower takes its leader's path and beats: give `follow`, or a `path` and `beats`")
+        return self
 
 
-DIRECTION_DESCRIPTION = "How the animals are directed, by animal name (the default animal is named after its species, e.g. `dog`): a path and beats along it (docs/direction.md)."
+DIRECTION_DESCRIPTION = "How the animals are directed, by animal name (the default animal is named after its species, e.g. `dog`): a path and beats along it, or another animal followed (docs/direction.md)."
 
 DirectionField = Annotated[dict[str, AnimalDirection], Field({}, description=DIRECTION_DESCRIPTION)]
 """The `direction:` mapping, in a scene or a direction file."""

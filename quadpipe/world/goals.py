@@ -74,6 +74,10 @@ CARROT_HP = 2.5
 STAND_RAMP_NATURAL = 1.0
 """How long the gait takes to fade into a stand (and back), natural times."""
 
+STAND_LEAD = 1.0
+"""How much of the fade into a stand comes before the stand starts (the animal's arrival at
+its mark), as a fraction of `STAND_RAMP_NATURAL`: the animal brakes before its mark."""
+
 FORCED_GAITS = {"walk": (0.0, 0.0), "trot": (1.0, 0.0), "gallop": (1.0, 1.0)}
 """The gaits a move may ask for, as `auto_gait`'s shares: (running gait, gallop)."""
 
@@ -161,11 +165,13 @@ def _steps_text(values: Sequence[tuple[float, float]], unit: str) -> str:
 
 
 def _stand_text(stands: Sequence[tuple[float, float]], ramp: float) -> str:
-    """1 while standing, 0 while moving, with a smooth ramp of `ramp` seconds after each change."""
+    """1 while standing, 0 while moving: a smooth ramp of `ramp` seconds into each stand
+    (`STAND_LEAD` of it before the stand starts) and out of it after it ends."""
     terms = ["0"]
     for start, end in stands:
+        begin = start - STAND_LEAD * ramp
         terms.append(
-            f"smoothstep({number_text(start, DIRECTION_DIGITS)} s, {number_text(start + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+            f"smoothstep({number_text(begin, DIRECTION_DIGITS)} s, {number_text(begin + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
         )
         if np.isfinite(end):
             terms.append(

@@ -21,10 +21,7 @@ import numpy as np
 from quadpipe.core.errors import Issue, Location
 
 DIRECTION_KEY = "direction"
-"""The clip metadata key holding the directed animal's timeline (`Timeline.to_json`)."""
-
-DIRECTED_KEY = "directed"
-"""The clip metadata key holding the directed animal's name."""
+"""The clip metadata key holding the directed animals' timelines (`timelines_json`)."""
 
 SPLINE_SAMPLES = 6
 """Straight pieces a smooth path has between two of its points."""
@@ -103,15 +100,24 @@ class Timeline:
         spans = [(seg.start, seg.end) for seg in self.segments if seg.kind != "move"]
         return spans + [(self.end, math.inf)]
 
-    def to_json(self) -> str:
-        """The timeline as JSON, for a clip's metadata."""
-        return json.dumps({"points": self.points.round(6).tolist(), "segments": [asdict(s) for s in self.segments]})
+    def to_dict(self) -> dict[str, Any]:
+        """The timeline as JSON-ready data."""
+        return {"points": self.points.tolist(), "segments": [asdict(s) for s in self.segments]}
 
     @classmethod
-    def from_json(cls, text: str) -> Timeline:
-        """The timeline a clip's metadata holds (see `to_json`)."""
-        data = json.loads(text)
-        return cls(np.array(data["points"], dtype=float), [Segment(**s) for s in data["segments"]])
+    def from_dict(cls, data: dict[str, Any]) -> Timeline:
+        """The timeline of `to_dict`'s data."""
+        return cls(np.array(data["points"], dtype=float).reshape(-1, 2), [Segment(**s) for s in data["segments"]])
+
+
+def timelines_json(timelines: dict[str, Timeline]) -> str:
+    """Animals' timelines as JSON text, for a clip's metadata (`DIRECTION_KEY`)."""
+    return json.dumps({name: timeline.to_dict() for name, timeline in timelines.items()})
+
+
+def timelines_from_json(text: str) -> dict[str, Timeline]:
+    """The timelines a clip's metadata holds (see `timelines_json`)."""
+    return {name: Timeline.from_dict(data) for name, data in json.loads(text).items()}
 
 
 def dense_path(points: np.ndarray, smooth: bool) -> tuple[np.ndarray, list[int]]:
@@ -207,3 +213,24 @@ def _bad_point(beat: BeatValues, at_point: int, count: int, where: Location) -> 
     else:
         message = f"the animal is at point {at_point} here: a move goes forward along the path, to a later point"
     return Issue("direction-bad-point", message, where, f"use a point from {at_point + 1} to {count - 1}")
+
+
+def follower_timeline(leader: Timeline, behind: float, aside: float) -> Timeline:
+    """The timeline of an animal following `leader`: the same beats at the same times, on
+    its path moved `behind` metres back along it (the path extended straight back from its
+    start) and `aside` metres to its left (each point moved along the mean of its pieces'
+    left normals)."""
+    points = leader.points
+    first = _unit(points[1] - points[0])
+    extended = np.vstack([points[0] - behind * first, points]) if behind > 0 else points.copy()
+    pieces = np.array([_unit(piece) for piece in np.diff(extended, axis=0)])
+    normals = np.column_stack([-pieces[:, 1], pieces[:, 0]])
+    at_points = np.vstack([normals[:1], normals[:-1] + normals[1:], normals[-1:]])
+    at_points = np.array([_unit(normal) for normal in at_points])
+    return Timeline(extended + aside * at_points, list(leader.segments))
+
+
+def _unit(vector: np.ndarray) -> np.ndarray:
+    """A vector scaled to length 1 (itself when it is zero)."""
+    length = float(np.linalg.norm(vector))
+    return vector / length if length > 0 else vector
