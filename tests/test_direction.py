@@ -17,7 +17,7 @@ from quadpipe.analysis.direction import DirectionReport, direction_reports, form
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.world.direction import load_direction
-from quadpipe.world.schema import DIRECTION_SCHEMA_PATH, direction_schema_text
+from quadpipe.world.schema import DIRECTION_SCHEMA_PATH, direction_json_schema, direction_schema_text
 from quadpipe.world.timeline import BeatValues, dense_path, follower_timeline, plan_direction
 from tests.conftest import FIXTURES, REPO
 
@@ -53,11 +53,12 @@ def write_direction(folder: Path, animal: str, body: dict) -> Path:
 
 @functools.cache
 def simulated(animal: str, direction: Path | None, scene: str | None, seconds: float) -> Clip:
-    """A shot simulated under `direct` (once per session); the animal must not fall."""
+    """A shot simulated under `direct` (once per session); no animal may fall."""
     from quadpipe.sim.simulation import simulate
 
     result = simulate(animal, "direct", seconds=seconds, scene=scene, direction=direction)
-    assert not result.metrics["animals"][animal]["fell"], f"the {animal} fell"
+    fallen = [name for name, figures in result.metrics["animals"].items() if figures["fell"]]
+    assert fallen == [], f"{', '.join(fallen)} fell"
     return result.clip
 
 
@@ -130,14 +131,35 @@ def test_direction_schema_is_current() -> None:
     assert committed == direction_schema_text(), "run: python -m quadpipe.world.generate"
 
 
-def test_shipped_direction_files_load() -> None:
-    for path in sorted(DIRECTIONS.glob("*.yaml")):
-        if (
-            "direction:" in path.read_text()
-            and "terrain" not in path.read_text()
-            and "animals:" not in path.read_text()
-        ):
-            assert load_direction(path).file.direction
+def direction_files() -> list[Path]:
+    """The direction files among the fixtures (the others are scenes)."""
+    return [path for path in sorted(DIRECTIONS.glob("*.yaml")) if "schemas/direction" in path.read_text()]
+
+
+def test_direction_schema_accepts_the_direction_files_and_describes_every_key() -> None:
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = direction_json_schema()
+    validator = jsonschema.Draft202012Validator(schema)
+    assert direction_files()
+    for path in direction_files():
+        assert list(validator.iter_errors(yaml.safe_load(path.read_text()))) == [], path
+    assert list(validator.iter_errors({"schema": 1, "direction": {"dog": {"follow": "a", "behnd": "1 HP"}}}))
+
+    def described(node: object) -> None:
+        if isinstance(node, dict):
+            for key, prop in node.get("properties", {}).items():
+                assert prop.get("description"), key
+            for value in node.values():
+                described(value)
+        elif isinstance(node, list):
+            for value in node:
+                described(value)
+
+    described(schema)
+
+
+def test_the_direction_files_load() -> None:
+    assert [load_direction(path).file.direction for path in direction_files()]
 
 
 BAD_FILES = {

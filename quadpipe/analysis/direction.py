@@ -46,7 +46,9 @@ class BeatFigures:
         arrival_s: a move: when the pelvis reached its end, within `REACHED_HP` (None: never).
         arrival_error_s: a move: arrival_s - asked_end_s.
         asked_speed_hp: a move: the asked speed, HP per natural time.
-        speed_error: a move: its mean speed (its length over the time the pelvis took) / asked - 1.
+        speed_error: a move: its mean speed / asked - 1, its mean speed being its length over
+            the time from when the pelvis reached its start (or when the move was asked to
+            start, if later: a move after a stand) to its arrival.
         strides: a move: its length in Alexander strides at the asked speed (2.3 Fr^0.3 HP).
         lateral_rms_hp: a move: RMS distance of the pelvis from the path while on it, HP.
         feet_down: a stand: fraction of its settled frames with all four feet down.
@@ -169,7 +171,8 @@ class _Measure:
         return self._stand(segment)
 
     def _move(self, segment: Segment) -> BeatFigures:
-        start, arrival = self.reached(segment.s0), self.reached(segment.s1)
+        reached, arrival = self.reached(segment.s0), self.reached(segment.s1)
+        start = None if reached is None else max(reached, segment.start)
         asked = segment.speed * self.natural / self.hp
         froude = segment.speed**2 / (GRAVITY * self.hp)
         strides = (segment.s1 - segment.s0) / (2.3 * froude**0.3 * self.hp)
