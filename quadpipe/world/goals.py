@@ -74,7 +74,7 @@ CARROT_HP = 2.5
 STAND_RAMP_NATURAL = 1.0
 """How long the gait takes to fade into a stand (and back), natural times."""
 
-STAND_LEAD = 1.0
+STAND_LEAD = 0.75
 """How much of the fade into a stand comes before the stand starts (the animal's arrival at
 its mark), as a fraction of `STAND_RAMP_NATURAL`: the animal brakes before its mark."""
 
