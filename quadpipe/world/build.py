@@ -136,7 +136,7 @@ def build_scene(
         scene.name, [placement.built for placement in placements], friction if ground is not None else None
     )
     add_terrain(spec, scene, values, friction)
-    attach_animals(spec, placements, friction)
+    attach_animals(spec, placements, friction, scene.file.animals_collide)
     tau = sizing.constraint_time_constant(hp)
     velocities = add_props(spec, scene, values, tau)
     throws = plan_throws(scene, values, [placement.name for placement in placements], -float(spec.option.gravity[2]))

@@ -485,6 +485,13 @@ class SceneFile(_Model):
             description="Where the animals start; default: one animal (the command line's) at the origin, facing +x. `HP`, `bw` and `bm` in the whole scene are those of the first.",
         ),
     ]
+    animals_collide: Annotated[
+        bool,
+        Field(
+            False,
+            description="`true`: the animals' bodies touch each other (each still passes through its own); `false`: they pass through each other.",
+        ),
+    ]
     direction: DirectionField
 
 
