@@ -236,17 +236,15 @@ STOP_AND_GO = {
 def stop_and_go(request, tmp_path_factory) -> DirectionReport:
     animal = request.param
     path = write_direction(tmp_path_factory.mktemp(animal), animal, STOP_AND_GO)
-    timeline_end = played_length(path)
-    return played(animal, path, None, timeline_end + TAIL_S)
+    return played(animal, path, None, shot_length(animal, path) + TAIL_S)
 
 
-def played_length(path: Path) -> float:
-    """The shot's length for the animal of a direction file (its timeline's end), seconds."""
+def shot_length(animal: str, direction: Path | None = None, scene: str | None = None) -> float:
+    """When an animal's shot ends (its timeline's end), seconds."""
     from quadpipe.sim.simulation import Simulation
 
-    name = next(iter(load_direction(path).file.direction))
-    simulation = Simulation.build(name, None, direction=path)
-    return simulation.setup.timelines[name].end
+    (timeline,) = Simulation.build(animal, None, scene=scene, direction=direction).setup.timelines.values()
+    return timeline.end
 
 
 @pytest.mark.slow
@@ -279,8 +277,10 @@ def test_the_report_is_json_ready(stop_and_go: DirectionReport) -> None:
 
 
 @pytest.mark.slow
-def test_a_loop_at_a_walk_stays_on_the_path() -> None:
-    report = played("dog", None, str(DIRECTIONS / "figure_eight.yaml"), 27.0)
+@pytest.mark.parametrize("animal", ["dog", "horse"])
+def test_a_figure_eight_at_a_walk_stays_on_the_path(animal: str) -> None:
+    scene = DIRECTIONS / "figure_eight.yaml"
+    report = played(animal, None, str(scene), shot_length(animal, scene=str(scene)) + TAIL_S)
     assert report.lateral_rms_hp is not None and report.lateral_rms_hp <= LOOP_LATERAL_HP, format_direction(report)
 
 
