@@ -359,3 +359,30 @@ def test_animals_collide_with_each_other_only_when_the_scene_says_so(tmp_path: P
     pairs = {tuple(sorted((owner[c.geom1], owner[c.geom2]))) for c in data.contact[: data.ncon]}
     assert (("a", "b") in pairs) == collide
     assert ("a", "a") not in pairs and ("b", "b") not in pairs
+
+
+LOOK = {
+    "path": {"points": [[0, 0, 0], ["6 HP", 0, 0]]},
+    "beats": [{"to": 1, "froude": 0.15}, {"hold": "4 s", "look_at": ["6 HP", "4 HP", "0.8 HP"]}, "stop"],
+}
+"""A walk, then a hold looking at a point to the left."""
+
+LOOK_TOLERANCE_DEG = 20.0
+"""At the end of a hold that looks at a point, the neck-to-head line points within this of it (horizontally)."""
+
+
+@pytest.mark.slow
+def test_a_hold_looks_at_its_point(tmp_path: Path) -> None:
+    from quadpipe.anatomy import roles
+
+    path = write_direction(tmp_path, "dog", LOOK)
+    clip = simulated("dog", path, None, shot_length("dog", path))
+    (report,) = direction_reports(clip)
+    hold = report.beats[1]
+    track = clip.animals[0]
+    frame = round((hold.asked_end_s - 0.1) * clip.fps)
+    neck, head = (track.positions[frame, roles.ROLES.index(role), :2] for role in ("neck0", "head"))
+    target = np.array([6.0, 4.0]) * track.pelvis_height
+    looking, wanted = head - neck, target - neck
+    off = np.degrees(np.arctan2(looking[1], looking[0]) - np.arctan2(wanted[1], wanted[0]))
+    assert abs((off + 180) % 360 - 180) <= LOOK_TOLERANCE_DEG

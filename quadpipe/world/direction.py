@@ -148,7 +148,15 @@ def _beat_values(beat: Move | Hold | str, path: tuple[Any, ...], values: Values)
         speed = values.get(path + ("speed",))
         if beat.froude is not None:
             speed = math.sqrt(beat.froude * units.STANDARD_GRAVITY * values.hp)
-        return BeatValues("move", beat.to, speed, values.get(path + ("at",)), gait=beat.gait, where=path)
+        return BeatValues(
+            "move", beat.to, speed, values.get(path + ("at",)), gait=beat.gait, look=_look(path, values), where=path
+        )
     if isinstance(beat, Hold):
-        return BeatValues("hold", hold=values[path + ("hold",)], where=path)
+        return BeatValues("hold", hold=values[path + ("hold",)], look=_look(path, values), where=path)
     return BeatValues("stop", where=path)
+
+
+def _look(path: tuple[Any, ...], values: Values) -> list[float] | None:
+    """A beat's `look_at` point in metres, None when it has none."""
+    point = values.get(path + ("look_at",))
+    return None if point is None else [float(v) for v in point]

@@ -76,6 +76,17 @@ class Move(_Model):
         ),
     ]
 
+    look_at: Annotated[
+        quantity(POINT) | None,
+        Field(
+            None,
+            description=described(
+                "A point the head and neck turn to during this beat, in world coordinates (z up from the ground).",
+                POINT,
+            ),
+        ),
+    ]
+
     @model_validator(mode="after")
     def _one_pace(self) -> Move:
         if sum(value is not None for value in (self.speed, self.froude, self.at)) != 1:
@@ -88,6 +99,16 @@ class Hold(_Model):
 
     hold: Annotated[
         quantity(TIME, POSITIVE), Field(description=described("How long it stands, from the start of the stop.", TIME))
+    ]
+    look_at: Annotated[
+        quantity(POINT) | None,
+        Field(
+            None,
+            description=described(
+                "A point the head and neck turn to during this beat, in world coordinates (z up from the ground).",
+                POINT,
+            ),
+        ),
     ]
 
 

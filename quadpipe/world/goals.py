@@ -11,7 +11,7 @@ from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.yamlio import dotted
 from quadpipe.quantities.expressions import TIME_VARIABLE
 from quadpipe.world.loading import SceneSpec
-from quadpipe.world.timeline import Timeline
+from quadpipe.world.timeline import Segment, Timeline
 from quadpipe.world.values import Values
 
 
@@ -93,6 +93,8 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
     - `path_tangent`: the path's direction at `path_point` (a unit vector);
     - `path_speed`: the asked speed now (0 while standing);
     - `path_stand`: 0 while moving, 1 while standing, a smooth ramp between;
+    - `path_look` and `path_looking`: the point a beat looks at, and 1 while one does (0
+      while looking ahead), ramping like a stand;
     - `path_auto`: 1 while the gait follows the speed, 0 while a move asks for one;
       `path_run` and `path_gallop`: the running gait's and the gallop's shares it asks for
       (see `FORCED_GAITS`), each ramping over the same time as a stand.
@@ -106,6 +108,7 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
         "path_tangent": _tangent_text(timeline),
         "path_speed": _steps_text([(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"),
         "path_stand": _stand_text(timeline.stands(), ramp),
+        **_look_texts(timeline.segments, ramp),
         **{
             name: _ramps_text([(when, share[k]) for when, share in shares] or [(0.0, float(k == 0))], ramp)
             for k, name in enumerate(("path_auto", "path_run", "path_gallop"))
@@ -190,6 +193,20 @@ def _ramps_text(values: Sequence[tuple[float, float]], ramp: float) -> str:
                 f"{number_text(after - before, DIRECTION_DIGITS)} * smoothstep({number_text(when, DIRECTION_DIGITS)} s, {number_text(when + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
             )
     return balanced_sum(terms)
+
+
+def _look_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:
+    """`path_look` (each looking beat's point from its start, held until the next's) and
+    `path_looking` (1 while a beat looks at a point, ramping over `ramp` seconds)."""
+    looks = [(seg.start, np.array(seg.look)) for seg in segments if seg.look is not None]
+    point = looks[0][1] if looks else np.zeros(3)
+    terms = [vector_text(point, DIRECTION_DIGITS)] + [
+        f"{vector_text(after - before, DIRECTION_DIGITS)} * step({number_text(when, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+        for (_, before), (when, after) in zip(looks, looks[1:])
+        if np.any(after != before)
+    ]
+    looking = [(seg.start, float(seg.look is not None)) for seg in segments] or [(0.0, 0.0)]
+    return {"path_look": balanced_sum(terms), "path_looking": _ramps_text([(0.0, 0.0), *looking], ramp)}
 
 
 def _plain_vector(vector: np.ndarray) -> str:

@@ -40,6 +40,7 @@ class Segment:
         beat: the beat's index in the file.
         point: the path point a move ends at (-1 for a stand).
         gait: the gait a move asks for (`auto`, `walk`, `trot`, `gallop`; `auto` for a stand).
+        look: the point the head turns to during the beat, [x, y, z] metres (None: ahead).
     """
 
     kind: str
@@ -51,6 +52,7 @@ class Segment:
     speed: float
     point: int = -1
     gait: str = "auto"
+    look: list[float] | None = None
 
 
 @dataclass
@@ -143,7 +145,8 @@ def dense_path(points: np.ndarray, smooth: bool) -> tuple[np.ndarray, list[int]]
 @dataclass(frozen=True)
 class BeatValues:
     """One beat with its values in SI: a move (`point`, `speed` or `arrival`, and `gait`), a
-    hold (`hold` seconds) or a stop (`kind` only). `where` locates it for messages."""
+    hold (`hold` seconds) or a stop (`kind` only), and where the head looks (`look`, metres;
+    None: ahead). `where` locates it for messages."""
 
     kind: str
     point: int = 0
@@ -151,6 +154,7 @@ class BeatValues:
     arrival: float | None = None
     hold: float = 0.0
     gait: str = "auto"
+    look: list[float] | None = None
     where: tuple[Any, ...] = ()
 
 
@@ -197,11 +201,15 @@ def plan_direction(
                 continue
             speed = (target - distance) / (beat.arrival - now) if beat.arrival is not None else float(beat.speed or 0)
             end = now + (target - distance) / speed
-            timeline.segments.append(Segment("move", index, now, end, distance, target, speed, beat.point, beat.gait))
+            timeline.segments.append(
+                Segment("move", index, now, end, distance, target, speed, beat.point, beat.gait, beat.look)
+            )
             now, at_point, distance = end, beat.point, target
         else:
             length = beat.hold if beat.kind == "hold" else STOP_TIME_NATURAL * natural_time
-            timeline.segments.append(Segment(beat.kind, index, now, now + length, distance, distance, 0.0))
+            timeline.segments.append(
+                Segment(beat.kind, index, now, now + length, distance, distance, 0.0, look=beat.look)
+            )
             now += length
     return timeline, issues
 
