@@ -386,3 +386,35 @@ def test_a_hold_looks_at_its_point(tmp_path: Path) -> None:
     looking, wanted = head - neck, target - neck
     off = np.degrees(np.arctan2(looking[1], looking[0]) - np.arctan2(wanted[1], wanted[0]))
     assert abs((off + 180) % 360 - 180) <= LOOK_TOLERANCE_DEG
+
+
+TURN_BACK = {
+    "path": {"points": [[0, 0, 0], ["6 HP", 0, 0], [0, 0, 0]]},
+    "beats": [
+        {"to": 1, "froude": 0.15},
+        {"hold": "2 s"},
+        {"turn": "180 deg", "for": "3 s"},
+        {"to": 2, "froude": 0.15},
+        "stop",
+    ],
+}
+"""Walk, stand, turn round on the spot, walk back along the same line."""
+
+TURNED_AT_LEAST_DEG = 150.0
+TURN_DRIFT_HP = 1.5
+"""What a 180 degree turn does today: the trunk turns at least this far by the turn's end
+(the dog: 156 degrees, finishing the turn as it walks off), the pelvis within this of the
+mark (the dog: 0.95 HP; it turns on a tight radius, not on the spot)."""
+
+
+@pytest.mark.slow
+def test_a_turn_brings_the_animal_round_to_walk_back(tmp_path: Path) -> None:
+    path = write_direction(tmp_path, "dog", TURN_BACK)
+    report = played("dog", path, None, shot_length("dog", path) + TAIL_S)
+    turn = next(b for b in report.beats if b.kind == "turn")
+    back = report.beats[turn.beat + 1]
+    assert turn.turned_deg is not None and turn.turned_deg >= TURNED_AT_LEAST_DEG, format_direction(report)
+    assert turn.drift_hp is not None and turn.drift_hp <= TURN_DRIFT_HP, format_direction(report)
+    assert back.arrival_error_s is not None, format_direction(report)
+    assert abs(back.arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s, format_direction(report)
+    assert report.beats[-1].feet_down == 1.0, format_direction(report)

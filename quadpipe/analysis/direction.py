@@ -30,6 +30,10 @@ REACHED_HP = 0.1
 """A mark on the path counts as reached within this distance of it, pelvis heights (an animal
 that brakes for a stop stands about there)."""
 
+BACKWARD_COST = 0.5
+"""Metres of distance from the path a place behind the last one costs per metre back: where
+the path doubles back over itself (a hairpin after a turn), the place further along wins."""
+
 SEARCH_BEHIND_HP = 1.0
 SEARCH_AHEAD_HP = 3.0
 """The pelvis's place on the path is searched this far behind and ahead of its last one, HP."""
@@ -55,6 +59,9 @@ class BeatFigures:
         still_speed_hp: a stand: highest pelvis speed over its settled frames, HP per natural time.
         stand_error_hp: a stand: how far past its mark on the path the pelvis stands (negative:
             short of it), mean over its settled frames, HP.
+        asked_turn_deg, turned_deg: a turn: the angle asked for, and how far the trunk
+            (pelvis to thorax) turned from its start to its end, degrees counter-clockwise.
+        drift_hp: a turn: how far from its mark the pelvis is at its end, HP.
     """
 
     kind: str
@@ -70,6 +77,9 @@ class BeatFigures:
     feet_down: float | None = None
     still_speed_hp: float | None = None
     stand_error_hp: float | None = None
+    asked_turn_deg: float | None = None
+    turned_deg: float | None = None
+    drift_hp: float | None = None
 
 
 @dataclass(frozen=True)
@@ -109,7 +119,8 @@ def _report(clip: Clip, track: AnimalTrack, timeline: Timeline) -> DirectionRepo
     pelvis = track.positions[:, roles.ROLES.index("pelvis"), :2]
     times = np.arange(len(pelvis)) / clip.fps
     along, aside = follow(timeline, pelvis, hp)
-    measure = _Measure(timeline, times, along, aside, pelvis, track.foot_contacts, hp, natural)
+    thorax = track.positions[:, roles.ROLES.index("thorax"), :2]
+    measure = _Measure(timeline, times, along, aside, pelvis, thorax, track.foot_contacts, hp, natural)
     final = timeline.segments[-1].s1 if timeline.segments else 0.0
     stands = [Segment("end", -1, timeline.end, math.inf, final, final, 0.0)]
     beats = tuple(measure.beat(segment) for segment in [*timeline.segments, *stands])
@@ -123,7 +134,8 @@ def follow(timeline: Timeline, pelvis: np.ndarray, hp: float) -> tuple[np.ndarra
     """The pelvis's distance along the path and its distance from it, per frame (metres).
 
     Each frame's place is the nearest point of the path within `SEARCH_BEHIND_HP` behind and
-    `SEARCH_AHEAD_HP` ahead of the last frame's place.
+    `SEARCH_AHEAD_HP` ahead of the last frame's place, places behind it counting as further
+    (`BACKWARD_COST`).
     """
     points, lengths = timeline.points, timeline.lengths
     starts, pieces = points[:-1], np.diff(points, axis=0)
@@ -136,7 +148,8 @@ def follow(timeline: Timeline, pelvis: np.ndarray, hp: float) -> tuple[np.ndarra
         distance = np.linalg.norm(where - nearest, axis=1)
         place = lengths[:-1] + fraction * piece_lengths
         near = (place >= last - SEARCH_BEHIND_HP * hp) & (place <= last + SEARCH_AHEAD_HP * hp)
-        best = int(np.argmin(np.where(near, distance, np.inf))) if near.any() else int(np.argmin(distance))
+        cost = distance + BACKWARD_COST * np.maximum(last - place, 0.0)
+        best = int(np.argmin(np.where(near, cost, np.inf))) if near.any() else int(np.argmin(distance))
         along[frame], aside[frame] = place[best], distance[best]
         last = along[frame]
     return along, aside
@@ -151,6 +164,7 @@ class _Measure:
     along: np.ndarray
     aside: np.ndarray
     pelvis: np.ndarray
+    thorax: np.ndarray
     contacts: np.ndarray
     hp: float
     natural: float
@@ -168,7 +182,30 @@ class _Measure:
         """One beat's figures (see `BeatFigures`)."""
         if segment.kind == "move":
             return self._move(segment)
+        if segment.kind == "turn":
+            return self._turn(segment)
         return self._stand(segment)
+
+    def _turn(self, segment: Segment) -> BeatFigures:
+        last = len(self.times) - 1
+        start, end = (min(int(round(when * self.fps)), last) for when in (segment.start, segment.end))
+        trunk = self.thorax - self.pelvis
+        yaw = np.unwrap(np.arctan2(trunk[start : end + 1, 1], trunk[start : end + 1, 0]))
+        mark = self.timeline.point_at(np.array([segment.s0]))[0]
+        return BeatFigures(
+            segment.kind,
+            segment.beat,
+            segment.start,
+            segment.end,
+            asked_turn_deg=math.degrees(segment.turn),
+            turned_deg=float(np.degrees(yaw[-1] - yaw[0])),
+            drift_hp=float(np.linalg.norm(self.pelvis[end] - mark) / self.hp),
+        )
+
+    @property
+    def fps(self) -> float:
+        """Frames per second of the clip."""
+        return 1.0 / float(self.times[1] - self.times[0]) if len(self.times) > 1 else 1.0
 
     def _move(self, segment: Segment) -> BeatFigures:
         reached, arrival = self.reached(segment.s0), self.reached(segment.s1)
@@ -235,6 +272,11 @@ def format_direction(report: DirectionReport) -> str:
             f"{_figure(None if b.speed_error is None else 100 * b.speed_error, 1):>12}  "
             f"{_figure(b.lateral_rms_hp, 3):>11}  {_figure(b.feet_down):>9}  {_figure(b.still_speed_hp, 3):>11}  "
             f"{_figure(b.stand_error_hp):>13}"
+            + (
+                f"  turned {b.turned_deg:.0f} of {b.asked_turn_deg:.0f} deg, {b.drift_hp:.2f} HP from its mark"
+                if b.turned_deg is not None and b.asked_turn_deg is not None and b.drift_hp is not None
+                else ""
+            )
         )
     return "\n".join(lines)
 

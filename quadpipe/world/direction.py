@@ -16,7 +16,7 @@ from typing import Any
 from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.yamlio import YamlDocument, load_yaml
 from quadpipe.quantities import units
-from quadpipe.world.direction_format import AnimalDirection, DirectionFile, Hold, Move
+from quadpipe.world.direction_format import AnimalDirection, DirectionFile, Hold, Move, Turn
 from quadpipe.world.format import SCHEMA_VERSION
 from quadpipe.world.loading import SceneSpec, file_order, quantity_issues, validate_part
 from quadpipe.world.timeline import BeatValues, Timeline, follower_timeline, plan_direction
@@ -142,7 +142,7 @@ def _play(
     return plan_direction(points[:, :2], animal.path.smooth, beats, natural_time, source.locate)
 
 
-def _beat_values(beat: Move | Hold | str, path: tuple[Any, ...], values: Values) -> BeatValues:
+def _beat_values(beat: Move | Hold | Turn | str, path: tuple[Any, ...], values: Values) -> BeatValues:
     """A beat with its values in SI."""
     if isinstance(beat, Move):
         speed = values.get(path + ("speed",))
@@ -153,6 +153,8 @@ def _beat_values(beat: Move | Hold | str, path: tuple[Any, ...], values: Values)
         )
     if isinstance(beat, Hold):
         return BeatValues("hold", hold=values[path + ("hold",)], look=_look(path, values), where=path)
+    if isinstance(beat, Turn):
+        return BeatValues("turn", hold=values[path + ("for",)], turn=values[path + ("turn",)], where=path)
     return BeatValues("stop", where=path)
 
 

@@ -19,6 +19,7 @@ from quadpipe.quantities.expressions import SCALAR, Expect
 from quadpipe.quantities.fields import NON_NEGATIVE, POSITIVE, Items, described, quantity
 
 LENGTH = fields.with_example(fields.LENGTH, "3 HP")
+ANGLE = fields.with_example(fields.ANGLE, "180 deg")
 POINT = fields.with_example(fields.POINT, "[4 HP, 0, 0]")
 SPEED = Expect(SCALAR, (units.VELOCITY,), "velocity", "froude_speed(0.15)")
 TIME = Expect(SCALAR, (units.TIME,), "time", "6 s")
@@ -112,15 +113,32 @@ class Hold(_Model):
     ]
 
 
+class Turn(_Model):
+    """Turn where the animal is, stepping on the spot (on a tight radius), by an angle."""
+
+    turn: Annotated[
+        quantity(ANGLE),
+        Field(description=described("How far it turns: positive to its left, negative to its right.", ANGLE)),
+    ]
+    for_: Annotated[
+        quantity(TIME, POSITIVE),
+        Field(alias="for", description=described("How long the turn takes.", TIME)),
+    ]
+
+
 def _beat_tag(value: Any) -> str:
     if value == "stop" or isinstance(value, str):
         return "stop"
-    has_hold = "hold" in value if isinstance(value, dict) else isinstance(value, Hold)
-    return "hold" if has_hold else "move"
+    if isinstance(value, dict):
+        return "hold" if "hold" in value else "turn" if "turn" in value else "move"
+    return "hold" if isinstance(value, Hold) else "turn" if isinstance(value, Turn) else "move"
 
 
 Beat = Annotated[
-    Annotated[Move, Tag("move")] | Annotated[Hold, Tag("hold")] | Annotated[Literal["stop"], Tag("stop")],
+    Annotated[Move, Tag("move")]
+    | Annotated[Hold, Tag("hold")]
+    | Annotated[Turn, Tag("turn")]
+    | Annotated[Literal["stop"], Tag("stop")],
     Discriminator(_beat_tag),
 ]
 
@@ -135,7 +153,7 @@ class AnimalDirection(_Model):
         Field(
             None,
             min_length=1,
-            description="What the animal does, in order: moves (`{to: 2, speed: froude_speed(0.15)}`, `{to: 3, at: 8 s}`), holds (`{hold: 2 s}`), and `stop` (stand still to the end; the shot also ends standing after its last move).",
+            description="What the animal does, in order: moves (`{to: 2, speed: froude_speed(0.15)}`, `{to: 3, at: 8 s}`), holds (`{hold: 2 s}`), turns (`{turn: 180 deg, for: 3 s}`), and `stop` (stand still to the end; the shot also ends standing after its last move).",
         ),
     ]
     follow: Annotated[

@@ -3,6 +3,7 @@ point moving along timed waypoints, or a direction's timeline for `direct`)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -89,7 +90,8 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
     """The controller parameters that play a timeline (see configs/controllers/direct.yaml):
 
     - `path_point`: where the pelvis should be now, on the path;
-    - `path_goal`: the point `CARROT_HP` further along, which the animal steers toward;
+    - `path_goal`: the point `CARROT_HP` further along, which the animal steers toward (during
+      a turn, swinging round the turn's mark);
     - `path_tangent`: the path's direction at `path_point` (a unit vector);
     - `path_speed`: the asked speed now (0 while standing);
     - `path_stand`: 0 while moving, 1 while standing, a smooth ramp between;
@@ -104,7 +106,11 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
     shares = [(when, (1.0, 0.0, 0.0) if forced is None else (0.0, *forced)) for when, forced in gaits]
     return {
         "path_point": timed_points_text(timeline, 0.0),
-        "path_goal": timed_points_text(timeline, CARROT_HP * hp),
+        "path_goal": " + ".join(
+            text
+            for text in (timed_points_text(timeline, CARROT_HP * hp), _turns_text(timeline, CARROT_HP * hp))
+            if text
+        ),
         "path_tangent": _tangent_text(timeline),
         "path_speed": _steps_text([(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"),
         "path_stand": _stand_text(timeline.stands(), ramp),
@@ -118,18 +124,54 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
 
 def timed_points_text(timeline: Timeline, ahead: float) -> str:
     """The point `ahead` metres along the path from the reference, in time, as text: a
-    corner wherever it passes a point of the polyline or the reference speed changes."""
+    corner wherever it passes a point of the polyline, reaches a turn's mark or the
+    reference speed changes. Until a turn is done, the point goes on straight past the
+    turn's mark (the animal does not cut across to the path after the turn)."""
     lengths = timeline.lengths
-    times = []
-    for (t0, s0), (t1, s1) in zip(timeline.knots(), timeline.knots()[1:]):
-        times.append(t0)
+    turns = [seg for seg in timeline.segments if seg.kind == "turn"]
+    marks = np.concatenate([lengths, [seg.s0 for seg in turns]]) - ahead
+    knots = timeline.knots()
+    times = {timeline.end}
+    for (t0, s0), (t1, s1) in zip(knots, knots[1:]):
+        times.add(t0)
         if s1 > s0:
-            inside = lengths[(lengths - ahead > s0) & (lengths - ahead < s1)] - ahead
-            times += list(t0 + (inside - s0) / (s1 - s0) * (t1 - t0))
-    times.append(timeline.end)
-    times = sorted(set(times))
-    points = timeline.point_at(timeline.distance_at(np.array(times)) + ahead)
-    return goal_expression([(t, np.array([x, y, 0.0])) for t, (x, y) in zip(times, points)], DIRECTION_DIGITS)
+            inside = marks[(marks > s0) & (marks < s1)]
+            times |= set(t0 + (inside - s0) / (s1 - s0) * (t1 - t0))
+    points = [(t, _ahead_point(timeline, turns, t, ahead)) for t in sorted(times)]
+    return goal_expression(points, DIRECTION_DIGITS)
+
+
+def _ahead_point(timeline: Timeline, turns: Sequence[Segment], when: float, ahead: float) -> np.ndarray:
+    """The point `ahead` metres along the path from the reference at time `when`, [x, y, 0]
+    metres: straight on past the mark of a turn not yet done (see `timed_points_text`)."""
+    distance = float(timeline.distance_at(np.array([when]))[0])
+    turn = next((seg for seg in turns if when < seg.end and distance + ahead > seg.s0 >= distance), None)
+    if turn is None:
+        x, y = timeline.point_at(np.array([distance + ahead]))[0]
+    else:
+        x, y = timeline.point_at(np.array([turn.s0]))[0] + (distance + ahead - turn.s0) * timeline.heading_at(turn.s0)
+    return np.array([x, y, 0.0])
+
+
+def _turns_text(timeline: Timeline, ahead: float) -> str:
+    """What turns add to the steering point: during each turn, the point `ahead` metres
+    from the turn's mark swings from straight on to the turn's angle, at a steady rate."""
+    terms = []
+    for seg in (seg for seg in timeline.segments if seg.kind == "turn"):
+        straight = timeline.heading_at(seg.s0)
+        t0, t1 = (number_text(when, DIRECTION_DIGITS) for when in (seg.start, seg.end))
+        angle = (
+            f"({number_text(math.atan2(straight[1], straight[0]), DIRECTION_DIGITS)} rad + "
+            f"{number_text(seg.turn, DIRECTION_DIGITS)} rad * clamp(({TIME_VARIABLE} - {t0} s) / "
+            f"({number_text(seg.end - seg.start, DIRECTION_DIGITS)} s), 0, 1))"
+        )
+        length = f"{number_text(ahead, DIRECTION_DIGITS)} m"
+        terms.append(
+            f"(step({t0} s, {TIME_VARIABLE}) - step({t1} s, {TIME_VARIABLE})) * "
+            f"([{length} * cos({angle}), {length} * sin({angle}), 0 m] - "
+            f"{vector_text(np.array([*(ahead * straight), 0.0]), DIRECTION_DIGITS)})"
+        )
+    return balanced_sum(terms)
 
 
 def _tangent_text(timeline: Timeline) -> str:

@@ -41,6 +41,7 @@ class Segment:
         point: the path point a move ends at (-1 for a stand).
         gait: the gait a move asks for (`auto`, `walk`, `trot`, `gallop`; `auto` for a stand).
         look: the point the head turns to during the beat, [x, y, z] metres (None: ahead).
+        turn: a turn's angle, radians counter-clockwise (0 for other beats).
     """
 
     kind: str
@@ -53,6 +54,7 @@ class Segment:
     point: int = -1
     gait: str = "auto"
     look: list[float] | None = None
+    turn: float = 0.0
 
 
 @dataclass
@@ -97,9 +99,16 @@ class Timeline:
         lengths = self.lengths
         return np.stack([np.interp(distance, lengths, self.points[:, k]) for k in range(2)], axis=-1)
 
+    def heading_at(self, distance: float) -> np.ndarray:
+        """The unit direction of the path's piece that arrives at `distance` (the first's at 0)."""
+        lengths = self.lengths
+        piece = int(np.clip(np.searchsorted(lengths, distance, side="left") - 1, 0, len(lengths) - 2))
+        step = self.points[piece + 1] - self.points[piece]
+        return step / max(float(np.linalg.norm(step)), 1e-12)
+
     def stands(self) -> list[tuple[float, float]]:
         """The intervals the animal stands still, (start, end) seconds (the last one ends at infinity)."""
-        spans = [(seg.start, seg.end) for seg in self.segments if seg.kind != "move"]
+        spans = [(seg.start, seg.end) for seg in self.segments if seg.kind in ("hold", "stop")]
         return spans + [(self.end, math.inf)]
 
     def to_dict(self) -> dict[str, Any]:
@@ -145,8 +154,9 @@ def dense_path(points: np.ndarray, smooth: bool) -> tuple[np.ndarray, list[int]]
 @dataclass(frozen=True)
 class BeatValues:
     """One beat with its values in SI: a move (`point`, `speed` or `arrival`, and `gait`), a
-    hold (`hold` seconds) or a stop (`kind` only), and where the head looks (`look`, metres;
-    None: ahead). `where` locates it for messages."""
+    hold (`hold` seconds), a turn (`turn` radians for `hold` seconds) or a stop (`kind`
+    only), and where the head looks (`look`, metres; None: ahead). `where` locates it for
+    messages."""
 
     kind: str
     point: int = 0
@@ -155,6 +165,7 @@ class BeatValues:
     hold: float = 0.0
     gait: str = "auto"
     look: list[float] | None = None
+    turn: float = 0.0
     where: tuple[Any, ...] = ()
 
 
@@ -206,9 +217,9 @@ def plan_direction(
             )
             now, at_point, distance = end, beat.point, target
         else:
-            length = beat.hold if beat.kind == "hold" else STOP_TIME_NATURAL * natural_time
+            length = beat.hold if beat.kind in ("hold", "turn") else STOP_TIME_NATURAL * natural_time
             timeline.segments.append(
-                Segment(beat.kind, index, now, now + length, distance, distance, 0.0, look=beat.look)
+                Segment(beat.kind, index, now, now + length, distance, distance, 0.0, look=beat.look, turn=beat.turn)
             )
             now += length
     return timeline, issues
