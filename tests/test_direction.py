@@ -403,14 +403,15 @@ TURN_BACK = {
 TURNED_AT_LEAST_DEG = 150.0
 TURN_DRIFT_HP = 1.5
 """What a 180 degree turn does today: the trunk turns at least this far by the turn's end
-(the dog: 156 degrees, finishing the turn as it walks off), the pelvis within this of the
-mark (the dog: 0.95 HP; it turns on a tight radius, not on the spot)."""
+(the dog 156 degrees, the horse 158, finishing the turn as they walk off), the pelvis within
+this of the mark (the dog 0.95 HP, the horse 1.13: they turn on a tight radius, not on the spot)."""
 
 
 @pytest.mark.slow
-def test_a_turn_brings_the_animal_round_to_walk_back(tmp_path: Path) -> None:
-    path = write_direction(tmp_path, "dog", TURN_BACK)
-    report = played("dog", path, None, shot_length("dog", path) + TAIL_S)
+@pytest.mark.parametrize("animal", ["dog", "horse"])
+def test_a_turn_brings_the_animal_round_to_walk_back(tmp_path: Path, animal: str) -> None:
+    path = write_direction(tmp_path, animal, TURN_BACK)
+    report = played(animal, path, None, shot_length(animal, path) + TAIL_S)
     turn = next(b for b in report.beats if b.kind == "turn")
     back = report.beats[turn.beat + 1]
     assert turn.turned_deg is not None and turn.turned_deg >= TURNED_AT_LEAST_DEG, format_direction(report)
@@ -418,3 +419,67 @@ def test_a_turn_brings_the_animal_round_to_walk_back(tmp_path: Path) -> None:
     assert back.arrival_error_s is not None, format_direction(report)
     assert abs(back.arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s, format_direction(report)
     assert report.beats[-1].feet_down == 1.0, format_direction(report)
+
+
+THE_SHOT = {
+    "path": {"points": [[0, 0, 0], ["6 HP", 0, 0], ["14 HP", 0, 0], ["8 HP", 0, 0]]},
+    "beats": [
+        {"to": 1, "froude": 0.15},
+        {"to": 2, "froude": 0.6},
+        {"hold": "5 s", "pose": "sit"},
+        {"hold": "5 s", "pose": "lie"},
+        {"hold": "2 s"},
+        {"turn": "180 deg", "for": "3 s"},
+        {"to": 3, "froude": 0.15},
+        "stop",
+    ],
+}
+"""Issue #16's shot: walk, trot, stop and sit, lie, stand, turn round, walk back, stop."""
+
+POSTURES_HOLD_S = 3.0
+"""The `postures` controller changes pose every 3 s: standing, sitting, lying."""
+
+POSE_DEPTH_HP = 0.06
+"""Sitting and lying, pelvis and thorax come at least as low as under `postures`, within this."""
+
+SIT_CHEST_UP_HP = 0.2
+"""Sitting, the thorax is at least this much higher than the pelvis."""
+
+
+def pose_heights(clip: Clip, ends: dict[str, float]) -> dict[str, tuple[float, float]]:
+    """Pose -> (pelvis, thorax) height in HP, averaged over the half second ending a second before `ends[pose]`."""
+    from quadpipe.anatomy import roles
+
+    track = clip.animals[0]
+    heights = {}
+    for pose, end in ends.items():
+        frames = slice(round((end - 1.5) * clip.fps), round((end - 1.0) * clip.fps))
+        heights[pose] = tuple(
+            float(track.positions[frames, roles.ROLES.index(role), 2].mean() / track.pelvis_height)
+            for role in ("pelvis", "thorax")
+        )
+    return heights
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("animal", ["dog", "horse"])
+def test_the_issues_shot_sits_lies_stands_turns_and_walks_back(tmp_path: Path, animal: str) -> None:
+    from tests.conftest import cached_simulation
+
+    path = write_direction(tmp_path, animal, THE_SHOT)
+    clip = simulated(animal, path, None, shot_length(animal, path) + TAIL_S)
+    (report,) = direction_reports(clip)
+    moves = [b for b in report.beats if b.kind == "move"]
+    assert all(b.arrival_error_s is not None for b in moves), format_direction(report)
+    assert all(abs(b.arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s for b in moves), format_direction(report)
+    sit, lie = (next(b for b in report.beats if b.beat == k) for k in (2, 3))
+    ours = pose_heights(clip, {"sit": sit.asked_end_s, "lie": lie.asked_end_s})
+    postures = cached_simulation(animal, "postures", 3 * POSTURES_HOLD_S).clip
+    theirs = pose_heights(postures, {"sit": 2 * POSTURES_HOLD_S + 1.0, "lie": 3 * POSTURES_HOLD_S + 1.0})
+    for pose in ("sit", "lie"):
+        for k, part in enumerate(("pelvis", "thorax")):
+            assert ours[pose][k] <= theirs[pose][k] + POSE_DEPTH_HP, (
+                f"{pose} {part}: {ours[pose][k]:.3f} HP, postures {theirs[pose][k]:.3f}"
+            )
+    assert ours["sit"][1] - ours["sit"][0] >= SIT_CHEST_UP_HP, "sitting, the chest stays up"
+    assert report.beats[-1].feet_down == 1.0 and report.beats[-1].still_speed_hp < STILL_HP, format_direction(report)

@@ -152,7 +152,7 @@ def _beat_values(beat: Move | Hold | Turn | str, path: tuple[Any, ...], values: 
             "move", beat.to, speed, values.get(path + ("at",)), gait=beat.gait, look=_look(path, values), where=path
         )
     if isinstance(beat, Hold):
-        return BeatValues("hold", hold=values[path + ("hold",)], look=_look(path, values), where=path)
+        return BeatValues("hold", hold=values[path + ("hold",)], look=_look(path, values), pose=beat.pose, where=path)
     if isinstance(beat, Turn):
         return BeatValues("turn", hold=values[path + ("for",)], turn=values[path + ("turn",)], where=path)
     return BeatValues("stop", where=path)

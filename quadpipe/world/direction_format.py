@@ -101,6 +101,13 @@ class Hold(_Model):
     hold: Annotated[
         quantity(TIME, POSITIVE), Field(description=described("How long it stands, from the start of the stop.", TIME))
     ]
+    pose: Annotated[
+        Literal["stand", "sit", "lie"],
+        Field(
+            "stand",
+            description="How it holds: `stand` on four feet, `sit` (hind legs folded under it, front legs straight), or `lie` (all four folded); it stands up again before the next move.",
+        ),
+    ]
     look_at: Annotated[
         quantity(POINT) | None,
         Field(

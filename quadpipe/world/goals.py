@@ -82,6 +82,9 @@ its mark), as a fraction of `STAND_RAMP_NATURAL`: the animal brakes before its m
 FORCED_GAITS = {"walk": (0.0, 0.0), "trot": (1.0, 0.0), "gallop": (1.0, 1.0)}
 """The gaits a move may ask for, as `auto_gait`'s shares: (running gait, gallop)."""
 
+POSE_RAMP_NATURAL = 3.0
+"""How long sitting or lying down takes, and getting up again, natural times."""
+
 DIRECTION_DIGITS = 7
 """Significant digits of the numbers of a direction's expressions (a micrometre on a 10 m path)."""
 
@@ -97,6 +100,7 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
     - `path_stand`: 0 while moving, 1 while standing, a smooth ramp between;
     - `path_look` and `path_looking`: the point a beat looks at, and 1 while one does (0
       while looking ahead), ramping like a stand;
+    - `path_sit` and `path_lie`: 1 while a hold sits (lies), with ramps down and up;
     - `path_auto`: 1 while the gait follows the speed, 0 while a move asks for one;
       `path_run` and `path_gallop`: the running gait's and the gallop's shares it asks for
       (see `FORCED_GAITS`), each ramping over the same time as a stand.
@@ -115,6 +119,7 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
         "path_speed": _steps_text([(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"),
         "path_stand": _stand_text(timeline.stands(), ramp),
         **_look_texts(timeline.segments, ramp),
+        **_pose_texts(timeline.segments, POSE_RAMP_NATURAL * natural_time),
         **{
             name: _ramps_text([(when, share[k]) for when, share in shares] or [(0.0, float(k == 0))], ramp)
             for k, name in enumerate(("path_auto", "path_run", "path_gallop"))
@@ -249,6 +254,22 @@ def _look_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:
     ]
     looking = [(seg.start, float(seg.look is not None)) for seg in segments] or [(0.0, 0.0)]
     return {"path_look": balanced_sum(terms), "path_looking": _ramps_text([(0.0, 0.0), *looking], ramp)}
+
+
+def _pose_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:
+    """`path_sit` and `path_lie`: 1 while a hold sits (lies), ramping over `ramp` seconds
+    from the hold's start, and back over the same time before it ends."""
+    texts = {}
+    for pose in ("sit", "lie"):
+        terms = ["0"]
+        for seg in (seg for seg in segments if seg.kind == "hold" and seg.pose == pose):
+            down, up = seg.start, max(seg.start, seg.end - ramp)
+            terms += [
+                f"smoothstep({number_text(down, DIRECTION_DIGITS)} s, {number_text(down + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})",
+                f"-smoothstep({number_text(up, DIRECTION_DIGITS)} s, {number_text(up + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})",
+            ]
+        texts[f"path_{pose}"] = balanced_sum(terms)
+    return texts
 
 
 def _plain_vector(vector: np.ndarray) -> str:

@@ -42,6 +42,7 @@ class Segment:
         gait: the gait a move asks for (`auto`, `walk`, `trot`, `gallop`; `auto` for a stand).
         look: the point the head turns to during the beat, [x, y, z] metres (None: ahead).
         turn: a turn's angle, radians counter-clockwise (0 for other beats).
+        pose: a hold's pose: `stand`, `sit` or `lie` (`stand` for other beats).
     """
 
     kind: str
@@ -55,6 +56,7 @@ class Segment:
     gait: str = "auto"
     look: list[float] | None = None
     turn: float = 0.0
+    pose: str = "stand"
 
 
 @dataclass
@@ -166,6 +168,7 @@ class BeatValues:
     gait: str = "auto"
     look: list[float] | None = None
     turn: float = 0.0
+    pose: str = "stand"
     where: tuple[Any, ...] = ()
 
 
@@ -219,7 +222,18 @@ def plan_direction(
         else:
             length = beat.hold if beat.kind in ("hold", "turn") else STOP_TIME_NATURAL * natural_time
             timeline.segments.append(
-                Segment(beat.kind, index, now, now + length, distance, distance, 0.0, look=beat.look, turn=beat.turn)
+                Segment(
+                    beat.kind,
+                    index,
+                    now,
+                    now + length,
+                    distance,
+                    distance,
+                    0.0,
+                    look=beat.look,
+                    turn=beat.turn,
+                    pose=beat.pose,
+                )
             )
             now += length
     return timeline, issues
