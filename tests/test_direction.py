@@ -222,6 +222,66 @@ def test_following_an_animal_without_a_path_is_located(tmp_path: Path) -> None:
     assert f"{scene}:5:" in str(caught.value) and "error direction-bad-leader" in str(caught.value)
 
 
+CURVE = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 1.0, 0.0], [6.0, 1.0, 0.0]]
+"""A path in metres, drawn as a curve in a set."""
+
+
+def curve_timeline(folder: Path, path: dict) -> np.ndarray:
+    """The dense path of a dog's direction whose `path` is `path`."""
+    direction = write_direction(folder, "dog", {"path": path, "beats": [{"to": 3, "froude": 0.15}]})
+    (timeline,) = played_timelines(direction).values()
+    return timeline.points
+
+
+def played_timelines(direction: Path) -> dict:
+    from quadpipe.sim.simulation import Simulation
+
+    return Simulation.build("dog", None, direction=direction).setup.timelines
+
+
+def write_obj(path: Path) -> Path:
+    lines = [f"v {x} {y} {z}" for x, y, z in CURVE] + ["l " + " ".join(str(k + 1) for k in range(len(CURVE)))]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def write_usd(path: Path) -> Path:
+    """The curve in a Y-up stage in centimetres (as Maya writes it)."""
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 0.01)
+    curves = UsdGeom.BasisCurves.Define(stage, "/set/path")
+    curves.CreatePointsAttr([(100 * x, 100 * z, -100 * y) for x, y, z in CURVE])
+    curves.CreateCurveVertexCountsAttr([len(CURVE)])
+    stage.Save()
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".usda"])
+def test_a_path_may_be_a_curve_drawn_in_the_set(tmp_path: Path, suffix: str) -> None:
+    if suffix != ".obj":
+        pytest.importorskip("pxr")
+    curve = (write_obj if suffix == ".obj" else write_usd)(tmp_path / f"path{suffix}")
+    from_file = curve_timeline(tmp_path, {"file": curve.name, "smooth": True})
+    from_points = curve_timeline(tmp_path, {"points": [[f"{x} m", f"{y} m", 0] for x, y, _ in CURVE], "smooth": True})
+    assert from_file == pytest.approx(from_points)
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [("v 0 0 0\nv 1 0 0\n", "has no polyline"), ("v 0 0 0\nl 1\n", "has 1 point(s)"), ("v 0 x 0\n", "line 1")],
+)
+def test_a_bad_curve_file_is_located(tmp_path: Path, text: str, words: str) -> None:
+    (tmp_path / "path.obj").write_text(text)
+    direction = write_direction(tmp_path, "dog", {"path": {"file": "path.obj"}, "beats": ["stop"]})
+    with pytest.raises(QuadpipeError) as caught:
+        played_timelines(direction)
+    assert f"{direction}:" in str(caught.value) and "error direction-bad-curve" in str(caught.value)
+    assert words in str(caught.value)
+
+
 # --------------------------------------------------------------------------- shots played
 
 

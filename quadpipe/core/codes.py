@@ -214,6 +214,7 @@ GROUPS: tuple[CodeGroup, ...] = (
             "throw-out-of-reach": "a throw too slow to reach its target from its direction",
             "direction-bad-point": "a direction's move to a path point that does not exist, or that is not ahead of the animal",
             "direction-too-soon": "a direction's move asked to arrive no later than it starts",
+            "direction-bad-curve": "a direction's path `file` that holds no usable curve (no OBJ polyline or USD BasisCurves, too few or too many points)",
             "direction-bad-leader": "a direction's `follow` naming an animal without a path and beats of its own",
         },
     ),

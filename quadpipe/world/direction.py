@@ -13,10 +13,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from quadpipe.core.errors import Issue, Location, QuadpipeError
+from quadpipe.core.textfiles import missing_file
 from quadpipe.core.yamlio import YamlDocument, load_yaml
 from quadpipe.quantities import units
-from quadpipe.world.direction_format import AnimalDirection, DirectionFile, Hold, Move, Turn
+from quadpipe.world.curves import CURVE_SUFFIXES, CurveError, read_curve
+from quadpipe.world.direction_format import MAX_PATH_POINTS, AnimalDirection, DirectionFile, Hold, Move, Turn
 from quadpipe.world.format import SCHEMA_VERSION
 from quadpipe.world.loading import SceneSpec, file_order, quantity_issues, validate_part
 from quadpipe.world.timeline import BeatValues, Timeline, follower_timeline, plan_direction
@@ -102,6 +106,8 @@ def scene_timelines(
             timeline, found_issues = _play(animal, path, evaluated, natural_time, source)
             timelines[name] = timeline
             issues += found_issues
+    if issues:
+        raise QuadpipeError(sorted(issues, key=file_order))
     for name, animal in found.items():
         if animal.follow is not None and name in names:
             leader = timelines.get(animal.follow)
@@ -137,9 +143,36 @@ def _play(
 ) -> tuple[Timeline, list[Issue]]:
     """One animal's own direction (a path and beats), evaluated and played out."""
     assert animal.path is not None and animal.beats is not None, "checked by `AnimalDirection._one_kind`"
-    points = values.items(path + ("path", "points"), len(animal.path.points))
+    if animal.path.points is not None:
+        points = values.items(path + ("path", "points"), len(animal.path.points))
+    else:
+        assert animal.path.file is not None, "checked by `DirectionPath._points_or_file`"
+        points, issue = _curve_points(
+            Path(source.doc.file).parent, animal.path.file, source.locate(path + ("path", "file"))
+        )
+        if issue is not None:
+            return Timeline(np.zeros((0, 2))), [issue]
     beats = [_beat_values(beat, path + ("beats", k), values) for k, beat in enumerate(animal.beats)]
     return plan_direction(points[:, :2], animal.path.smooth, beats, natural_time, source.locate)
+
+
+def _curve_points(folder: Path, name: str, where: Location) -> tuple[np.ndarray, Issue | None]:
+    """A path's points read from a curve file (`quadpipe.world.curves`), or the issue of why not."""
+    file = folder / name
+    if not file.is_file():
+        return np.zeros((0, 3)), missing_file(file, "curve", name=name, where=where, suffixes=CURVE_SUFFIXES)
+    try:
+        points = read_curve(file)
+    except CurveError as exc:
+        return np.zeros((0, 3)), Issue("direction-bad-curve", f"{name}: {exc}", where)
+    problem = None
+    if not 2 <= len(points) <= MAX_PATH_POINTS:
+        problem = f"the curve has {len(points)} point(s); a path has 2 to {MAX_PATH_POINTS}"
+    elif not np.isfinite(points).all():
+        problem = "the curve holds numbers that are not finite"
+    if problem is not None:
+        return points, Issue("direction-bad-curve", f"{name}: {problem}", where)
+    return points, None
 
 
 def _beat_values(beat: Move | Hold | Turn | str, path: tuple[Any, ...], values: Values) -> BeatValues:

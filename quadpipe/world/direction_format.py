@@ -32,15 +32,23 @@ class _Model(BaseModel):
 
 
 class DirectionPath(_Model):
-    """The line the animal's pelvis follows over the ground."""
+    """The line the animal's pelvis follows over the ground: points, or a curve file."""
 
     points: Annotated[
-        list[quantity(POINT)],
+        list[quantity(POINT)] | None,
         Items(POINT),
         Field(
+            None,
             min_length=2,
             max_length=MAX_PATH_POINTS,
             description=f"The path's points `[x, y, z]` in world coordinates (z is ignored: the animal walks on whatever is below), from where the animal starts; 2 to {MAX_PATH_POINTS} points. Each is a point a move can end at (`to`, counted from 0).",
+        ),
+    ]
+    file: Annotated[
+        str | None,
+        Field(
+            None,
+            description="Instead of `points`: a curve drawn in the set, relative to this file: an OBJ polyline (its vertices in the order its first `l` line joins them, metres, z up) or a USD file's first `BasisCurves` (its first curve's points, in world metres). Its points are the path's points.",
         ),
     ]
     smooth: Annotated[
@@ -50,6 +58,12 @@ class DirectionPath(_Model):
             description="`true`: a smooth curve through the points (a Catmull-Rom spline); `false`: straight lines between them.",
         ),
     ]
+
+    @model_validator(mode="after")
+    def _points_or_file(self) -> DirectionPath:
+        if (self.points is None) == (self.file is None):
+            raise ValueError("give either `points` or a curve `file`")
+        return self
 
 
 class Move(_Model):
