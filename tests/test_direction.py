@@ -282,6 +282,15 @@ def test_a_bad_curve_file_is_located(tmp_path: Path, text: str, words: str) -> N
     assert words in str(caught.value)
 
 
+def test_a_direction_too_long_to_play_is_located(tmp_path: Path) -> None:
+    points = [[f"{2 * k} HP", f"{k % 2} HP", 0] for k in range(64)]
+    beats = [{"to": k, "froude": 0.15} for k in range(1, 64)]
+    direction = write_direction(tmp_path, "dog", {"path": {"points": points, "smooth": True}, "beats": beats})
+    with pytest.raises(QuadpipeError) as caught:
+        played_timelines(direction)
+    assert f"{direction}:3:5: error limit-exceeded: the direction of dog is too long to play" in str(caught.value)
+
+
 # --------------------------------------------------------------------------- shots played
 
 

@@ -17,7 +17,7 @@ from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities import units
 from quadpipe.world.direction import DirectionSpec, scene_timelines
 from quadpipe.world.format import AnimalGrid, Ground
-from quadpipe.world.goals import direction_parameters, goal_text
+from quadpipe.world.goals import check_direction_length, direction_parameters, goal_text
 from quadpipe.world.loading import SceneSpec, entry_names, is_path
 from quadpipe.world.placement import Placement, attach_animals, world_spec
 from quadpipe.world.props import PropStart, add_props
@@ -146,6 +146,8 @@ def build_scene(
     directions = {
         p.name: direction_parameters(timelines[p.name], *_sizes(p.built)) for p in placements if p.name in timelines
     }
+    for name, parameters in directions.items():
+        check_direction_length(name, parameters, (direction or scene).locate(("direction", name)))
     if len(placements) == 1:
         goals |= directions.get(placements[0].name, {})
     headings = [placement.heading for placement in placements]

@@ -8,7 +8,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from quadpipe.core.errors import QuadpipeError
+from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.limits import MAX_EXPRESSION_LENGTH
 from quadpipe.core.yamlio import dotted
 from quadpipe.quantities.expressions import TIME_VARIABLE
 from quadpipe.world.loading import SceneSpec
@@ -125,6 +126,26 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
             for k, name in enumerate(("path_auto", "path_run", "path_gallop"))
         },
     }
+
+
+def check_direction_length(name: str, parameters: dict[str, str], where: Location) -> None:
+    """Refuse a direction whose expressions are too long for the controller language, at the
+    direction (rather than at the expression the controller cannot read).
+
+    Raises:
+        QuadpipeError: `limit-exceeded`, naming the longest expression.
+    """
+    longest = max(parameters, key=lambda key: len(parameters[key]))
+    length = len(parameters[longest])
+    if length > MAX_EXPRESSION_LENGTH.value:
+        raise QuadpipeError.single(
+            "limit-exceeded",
+            f"the direction of {name} is too long to play: its {longest} expression would be {length} "
+            f"characters, over the limit of {MAX_EXPRESSION_LENGTH.value:g}",
+            where=where,
+            hint="give its path fewer points (a smooth path has 6 pieces between two points: try `smooth: false`) "
+            "or fewer beats, or split the shot in two",
+        )
 
 
 def timed_points_text(timeline: Timeline, ahead: float) -> str:
