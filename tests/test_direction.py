@@ -469,25 +469,41 @@ TURN_BACK = {
 }
 """Walk, stand, turn round on the spot, walk back along the same line."""
 
-TURNED_AT_LEAST_DEG = 150.0
-TURN_DRIFT_HP = 1.5
-"""What a 180 degree turn does today: the trunk turns at least this far by the turn's end
-(the dog 156 degrees, the horse 158, finishing the turn as they walk off), the pelvis within
-this of the mark (the dog 0.95 HP, the horse 1.13: they turn on a tight radius, not on the spot)."""
+IN_PLACE_DEG = 10.0
+IN_PLACE_HP = 0.5
+"""A turn in place (issue #16): by its end the trunk has turned the asked angle within this,
+the pelvis within this of the mark."""
+
+
+def turn_back(animal: str, tmp_path: Path) -> DirectionReport:
+    path = write_direction(tmp_path, animal, TURN_BACK)
+    return played(animal, path, None, shot_length(animal, path) + TAIL_S)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("animal", ["dog", "horse"])
 def test_a_turn_brings_the_animal_round_to_walk_back(tmp_path: Path, animal: str) -> None:
-    path = write_direction(tmp_path, animal, TURN_BACK)
-    report = played(animal, path, None, shot_length(animal, path) + TAIL_S)
+    report = turn_back(animal, tmp_path)
     turn = next(b for b in report.beats if b.kind == "turn")
     back = report.beats[turn.beat + 1]
-    assert turn.turned_deg is not None and turn.turned_deg >= TURNED_AT_LEAST_DEG, format_direction(report)
-    assert turn.drift_hp is not None and turn.drift_hp <= TURN_DRIFT_HP, format_direction(report)
     assert back.arrival_error_s is not None, format_direction(report)
     assert abs(back.arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s, format_direction(report)
     assert report.beats[-1].feet_down == 1.0, format_direction(report)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="turns on a tight radius, not in place: by the turn's end the dog has turned 156 of 180 degrees "
+    "and stands 0.95 HP from its mark, the horse 158 degrees and 1.13 HP (they finish the turn walking off)",
+)
+@pytest.mark.parametrize("animal", ["dog", "horse"])
+def test_a_turn_is_made_in_place(tmp_path: Path, animal: str) -> None:
+    report = turn_back(animal, tmp_path)
+    turn = next(b for b in report.beats if b.kind == "turn")
+    assert turn.turned_deg is not None and turn.asked_turn_deg is not None and turn.drift_hp is not None
+    assert abs(turn.turned_deg - turn.asked_turn_deg) <= IN_PLACE_DEG, format_direction(report)
+    assert turn.drift_hp <= IN_PLACE_HP, format_direction(report)
 
 
 THE_SHOT = {
@@ -508,9 +524,6 @@ THE_SHOT = {
 POSTURES_HOLD_S = 3.0
 """The `postures` controller changes pose every 3 s: standing, sitting, lying."""
 
-POSE_DEPTH_HP = 0.06
-"""Sitting and lying, pelvis and thorax come at least as low as under `postures`, within this."""
-
 SIT_CHEST_UP_HP = 0.2
 """Sitting, the thorax is at least this much higher than the pelvis."""
 
@@ -530,25 +543,51 @@ def pose_heights(clip: Clip, ends: dict[str, float]) -> dict[str, tuple[float, f
     return heights
 
 
+def the_shot(animal: str, tmp_path: Path) -> Clip:
+    path = write_direction(tmp_path, animal, THE_SHOT)
+    return simulated(animal, path, None, shot_length(animal, path) + TAIL_S)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("animal", ["dog", "horse"])
 def test_the_issues_shot_sits_lies_stands_turns_and_walks_back(tmp_path: Path, animal: str) -> None:
-    from tests.conftest import cached_simulation
-
-    path = write_direction(tmp_path, animal, THE_SHOT)
-    clip = simulated(animal, path, None, shot_length(animal, path) + TAIL_S)
+    clip = the_shot(animal, tmp_path)
     (report,) = direction_reports(clip)
     moves = [b for b in report.beats if b.kind == "move"]
     assert all(b.arrival_error_s is not None for b in moves), format_direction(report)
     assert all(abs(b.arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s for b in moves), format_direction(report)
+    sit = next(b for b in report.beats if b.beat == 2)
+    pelvis, thorax = pose_heights(clip, {"sit": sit.asked_end_s})["sit"]
+    assert thorax - pelvis >= SIT_CHEST_UP_HP, "sitting, the chest stays up"
+    assert report.beats[-1].feet_down == 1.0 and report.beats[-1].still_speed_hp < STILL_HP, format_direction(report)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "animal",
+    [
+        pytest.param(
+            "dog",
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="the dog lies 0.04 HP higher than under postures (pelvis 0.700 HP against 0.662, "
+                "thorax 0.751 against 0.702); it sits lower (0.655 and 0.966 against 0.736 and 1.042)",
+            ),
+        ),
+        "horse",
+    ],
+)
+def test_the_issues_shot_reaches_the_postures_heights(tmp_path: Path, animal: str) -> None:
+    from tests.conftest import cached_simulation
+
+    clip = the_shot(animal, tmp_path)
+    (report,) = direction_reports(clip)
     sit, lie = (next(b for b in report.beats if b.beat == k) for k in (2, 3))
     ours = pose_heights(clip, {"sit": sit.asked_end_s, "lie": lie.asked_end_s})
     postures = cached_simulation(animal, "postures", 3 * POSTURES_HOLD_S).clip
     theirs = pose_heights(postures, {"sit": 2 * POSTURES_HOLD_S + 1.0, "lie": 3 * POSTURES_HOLD_S + 1.0})
     for pose in ("sit", "lie"):
         for k, part in enumerate(("pelvis", "thorax")):
-            assert ours[pose][k] <= theirs[pose][k] + POSE_DEPTH_HP, (
+            assert ours[pose][k] <= theirs[pose][k], (
                 f"{pose} {part}: {ours[pose][k]:.3f} HP, postures {theirs[pose][k]:.3f}"
             )
-    assert ours["sit"][1] - ours["sit"][0] >= SIT_CHEST_UP_HP, "sitting, the chest stays up"
-    assert report.beats[-1].feet_down == 1.0 and report.beats[-1].still_speed_hp < STILL_HP, format_direction(report)
