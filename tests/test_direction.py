@@ -353,12 +353,27 @@ def test_a_figure_eight_at_a_walk_stays_on_the_path(animal: str) -> None:
     assert report.lateral_rms_hp is not None and report.lateral_rms_hp <= LOOP_LATERAL_HP, format_direction(report)
 
 
+LANDING_HP = (7.0, 15.0, 0.5)
+"""The stairs scene's landing: from x = 7 HP to 15 HP, 0.5 HP up (configs/scenes/stairs.yaml)."""
+
+STANDING_HP = 0.7
+"""Standing, the pelvis is at least this high above the ground under it."""
+
+
 @pytest.mark.slow
 def test_the_stairs_end_standing_on_the_landing() -> None:
-    report = played("dog", DIRECTIONS / "stairs_landing.yaml", "stairs", 17.0)
+    from quadpipe.anatomy import roles
+
+    clip = simulated("dog", DIRECTIONS / "stairs_landing.yaml", "stairs", 17.0)
+    (report,) = direction_reports(clip)
     end = report.beats[-1]
     assert report.beats[0].arrival_error_s is not None
+    assert abs(report.beats[0].arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s, format_direction(report)
     assert end.feet_down == 1.0 and end.still_speed_hp < STILL_HP, format_direction(report)
+    track = clip.animals[0]
+    x, _, z = track.positions[-1, roles.ROLES.index("pelvis")] / track.pelvis_height
+    start, stop, height = LANDING_HP
+    assert start < x < stop and z - height > STANDING_HP, f"the pelvis ends at x {x:.2f} HP, {z:.2f} HP up"
 
 
 FORCED_GAITS = {
