@@ -39,12 +39,14 @@ def bake(
     places: Mapping[str, Location] | None = None,
     look: Look = "body",
     skeleton: SkeletonChoice = "rig",
+    direction: Path | None = None,
 ) -> Result:
     """Simulate once (see `quadpipe.sim.simulation.simulate`), write the clip into every output,
     then the metrics JSON: all of them, or none (inside a running `transaction`, at its commit).
     `places` says where each of `parameters` was written (a batch plan's line), for messages;
     `look` how glTF and USD files draw the animals (`quadpipe.bodies`); `skeleton` whether an
-    animal imported from a rig is written on the rig's joints (`quadpipe.exporters.export_clip`).
+    animal imported from a rig is written on the rig's joints (`quadpipe.exporters.export_clip`);
+    `direction` a direction file replacing the scene's (docs/direction.md).
 
     Raises:
         QuadpipeError: the inputs cannot be loaded, the simulation blew up, a file cannot be
@@ -63,6 +65,7 @@ def bake(
         on_frame=on_frame,
         fps=fps,
         places=places,
+        direction=direction,
     )
     with transaction():
         for output in outputs:

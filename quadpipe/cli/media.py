@@ -41,7 +41,9 @@ def render(
     parameters: SetOpt = None,
     width: Annotated[int, typer.Option(help="Frame width in pixels.")] = 640,
     height: Annotated[int, typer.Option(help="Frame height in pixels.")] = 480,
-    overlays: Annotated[str, typer.Option(help="Overlays to draw: contacts,trail or none.")] = "contacts,trail",
+    overlays: Annotated[
+        str, typer.Option(help="Overlays to draw: contacts,trail,path (a directed clip's path) or none.")
+    ] = "contacts,trail,path",
     look: LookOpt = Look.body,
     limits: LimitsOpt = None,
     roles: RolesOpt = None,
@@ -107,13 +109,15 @@ def analyze(
     fmt: FormatOpt = OutputFormat.text,
 ) -> None:
     """Gait and posture analysis of a clip: footfalls, duty factors, phases, stride, speed, Froude
-    number, gait name; joint flexion in stance, trunk, head and tail carriage, foot slip.
+    number, gait name; joint flexion in stance, trunk, head and tail carriage, foot slip; for a
+    directed clip, the path error, arrival times and speed error per beat, and the stands.
 
     Example: quadpipe analyze run.npz -o report.json --diagram footfalls.png
     """
     import dataclasses
 
     from quadpipe.analysis import analyze_clip, check_diagram_path, format_report, posture_report
+    from quadpipe.analysis.direction import direction_reports
     from quadpipe.core.outputs import check_distinct, check_suffix
     from quadpipe.exporters.npz import load_clip
 
@@ -125,7 +129,9 @@ def analyze(
         check_diagram_path(diagram)
     baked = load_clip(clip)
     report = dataclasses.replace(
-        analyze_clip(baked, animal), posture=posture_report(baked, animal, *(() if settle is None else (settle,)))
+        analyze_clip(baked, animal),
+        posture=posture_report(baked, animal, *(() if settle is None else (settle,))),
+        directions=direction_reports(baked),
     )
     typer.echo(report.to_json().rstrip("\n") if fmt == OutputFormat.json else format_report(report))
     write_gait_files(report, output, diagram)

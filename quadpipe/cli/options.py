@@ -95,6 +95,12 @@ def animal_source(animal: str, limits: Path | None, roles: Path | None, mass: fl
 
 ControllerOpt = Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")]
 SceneOpt = Annotated[str, typer.Option("--scene", help="Scene name or file: terrain, props, throws, goals.")]
+DirectionOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--direction", help="Direction file (a path and beats, docs/direction.md); replaces the scene's direction."
+    ),
+]
 SecondsOpt = Annotated[float, typer.Option("--seconds", "-s", help="Simulated time.")]
 SetOpt = Annotated[
     list[str] | None, typer.Option("--set", help="Override a controller parameter: NAME=VALUE (repeatable).")

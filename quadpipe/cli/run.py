@@ -12,6 +12,7 @@ from quadpipe.cli.options import (
     AnimalOpt,
     ControllerOpt,
     DiagramOpt,
+    DirectionOpt,
     FpsOpt,
     GaitReportOpt,
     LimitsOpt,
@@ -57,6 +58,7 @@ def simulate(
     roles: RolesOpt = None,
     mass: MassOpt = None,
     skeleton: SkeletonOpt = Skeleton.rig,
+    direction: DirectionOpt = None,
 ) -> None:
     """Simulate an animal under a controller and write the clip and its metrics.
 
@@ -77,6 +79,7 @@ def simulate(
         diagram,
         look_name(look),
         skeleton.value,
+        direction,
     )
 
 
@@ -96,6 +99,7 @@ def bake(
     roles: RolesOpt = None,
     mass: MassOpt = None,
     skeleton: SkeletonOpt = Skeleton.rig,
+    direction: DirectionOpt = None,
 ) -> None:
     """Simulate once and bake the motion into every requested file; the suffix picks the format.
 
@@ -117,6 +121,7 @@ def bake(
         diagram,
         look_name(look),
         skeleton.value,
+        direction,
     )
 
 
@@ -133,6 +138,7 @@ def _bake_and_report(
     diagram: Path | None,
     look: LookName,
     skeleton: SkeletonChoice,
+    direction: Path | None = None,
 ) -> None:
     """`simulate` and `bake`: check every output path first, bake, print the figures, write the gait
     files: every file, or none (they are renamed into place together at the end). A skeleton
@@ -145,7 +151,10 @@ def _bake_and_report(
     check_run(seconds, fps, names=("--seconds", "--fps"))
     metrics_path = metrics or outputs[0].with_suffix(METRICS_SUFFIX)
     metrics_named = ("--metrics", metrics) if metrics else ("the default --metrics", metrics_path)
-    _check_bake_outputs(outputs, metrics_named, gait_report, diagram, [str(animal), controller, scene])
+    inputs = list(zip(INPUT_OPTIONS, [str(animal), controller, scene])) + (
+        [("--direction", str(direction))] if direction else []
+    )
+    _check_bake_outputs(outputs, metrics_named, gait_report, diagram, inputs)
     announce_animal(animal)
     with transaction():
         result = bake(
@@ -160,6 +169,7 @@ def _bake_and_report(
             fps=fps,
             look=look,
             skeleton=skeleton,
+            direction=direction,
         )
         print_warnings(result.warnings)
         typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
@@ -179,7 +189,11 @@ INPUT_OPTIONS = ("--animal", "--controller", "--scene")
 
 
 def _check_bake_outputs(
-    outputs: list[Path], metrics: tuple[str, Path], gait_report: Path | None, diagram: Path | None, inputs: list[str]
+    outputs: list[Path],
+    metrics: tuple[str, Path],
+    gait_report: Path | None,
+    diagram: Path | None,
+    inputs: list[tuple[str, str]],
 ) -> None:
     """Before simulating: every output a distinct file, apart from the inputs, of the right suffix, writable."""
     from quadpipe.core.atomic import check_writable
@@ -188,9 +202,7 @@ def _check_bake_outputs(
 
     named = [("-o", output) for output in outputs] + [metrics]
     named += [(option, path) for option, path in (("--gait-report", gait_report), ("--diagram", diagram)) if path]
-    check_distinct(
-        named, [(f"the {option} file", Path(name)) for option, name in zip(INPUT_OPTIONS, inputs, strict=True)]
-    )
+    check_distinct(named, [(f"the {option} file", Path(name)) for option, name in inputs])
     for output in outputs:
         check_output_path(output)
     for option, path in named[len(outputs) :]:

@@ -20,7 +20,7 @@ The modules, in the order a file is made:
 - `gl`: the OpenGL backend (`MUJOCO_GL`) and a context of it;
 - `poses`: what a picture takes from the clip (its length unit, poses held through NaN);
 - `camera`: `Camera` (how the clip is framed) and each frame's `CameraView`;
-- `overlays`: `Overlay` layers and the built-in ones (foot contacts, pelvis trail);
+- `overlays`: `Overlay` layers and the built-in ones (foot contacts, pelvis trail, a directed clip's path);
 - `display`: the display model (`display_spec`);
 - `renderer`: `ClipRenderer`, which draws frames, and `render_fps`;
 - `sheet`: contact sheets;

@@ -35,6 +35,7 @@ from quadpipe.quantities.fields import (
     quantities,
     quantity,
 )
+from quadpipe.world.direction_format import DirectionField
 from quadpipe.world.set_format import TerrainMesh
 
 SCHEMA_VERSION = 1
@@ -492,6 +493,14 @@ class SceneFile(_Model):
             description="Where the animals start; default: one animal (the command line's) at the origin, facing +x. `HP`, `bw` and `bm` in the whole scene are those of the first.",
         ),
     ]
+    animals_collide: Annotated[
+        bool,
+        Field(
+            False,
+            description="`true`: the animals' bodies touch each other (each still passes through its own); `false`: they pass through each other.",
+        ),
+    ]
+    direction: DirectionField
 
 
 TAGGED_LISTS: dict[str, tuple[Callable[[dict[str, Any]], str | None], dict[str, type[BaseModel]], str]] = {
