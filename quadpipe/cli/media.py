@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from enum import Enum
 from pathlib import Path
 from typing import Annotated
 
@@ -24,6 +25,16 @@ from quadpipe.cli.options import (
 from quadpipe.cli.output import write_gait_files
 
 
+class View(str, Enum):
+    """Named camera views of `quadpipe render` (`quadpipe.render.camera.VIEWS`)."""
+
+    three_quarter = "three-quarter"
+    side = "side"
+    rear = "rear"
+    front = "front"
+    top = "top"
+
+
 def render(
     outputs: Annotated[
         list[Path], typer.Option("-o", "--output", help="Video or picture: .mp4, .gif, or .png (a contact sheet).")
@@ -38,17 +49,21 @@ def render(
     height: Annotated[int, typer.Option(help="Frame height in pixels.")] = 480,
     overlays: Annotated[str, typer.Option(help="Overlays to draw: contacts,trail or none.")] = "contacts,trail",
     look: LookOpt = Look.body,
+    view: Annotated[
+        View, typer.Option("--view", help="Where the camera looks from, for an animal heading +x.")
+    ] = View.three_quarter,
 ) -> None:
     """Render a clip headless (MuJoCo's renderer) to MP4, GIF, or a PNG contact sheet.
 
-    Example: quadpipe render run.npz -o run.mp4 -o sheet.png   |   quadpipe render --controller spine_walk --scene hill -o walk.mp4
+    Example: quadpipe render run.npz -o run.mp4 -o sheet.png --view side   |   quadpipe render --controller spine_walk --scene hill -o walk.mp4
     """
     from quadpipe.core.atomic import check_writable, transaction
     from quadpipe.core.outputs import check_distinct
-    from quadpipe.render import builtin_overlays, render_clip
+    from quadpipe.render import builtin_overlays, render_clip, view_camera
     from quadpipe.render.writers import render_format
 
     check_distinct([("-o", output) for output in outputs], [("the clip", clip)] if clip is not None else [])
+    camera = view_camera(view.value)
     for output in outputs:
         render_format(output)
         check_writable(output)
@@ -71,7 +86,13 @@ def render(
     with transaction():
         for output in outputs:
             render_clip(
-                baked, output, width=width, height=height, overlays=builtin_overlays(baked, names), look=look_name(look)
+                baked,
+                output,
+                width=width,
+                height=height,
+                camera=camera,
+                overlays=builtin_overlays(baked, names),
+                look=look_name(look),
             )
     for output in outputs:
         typer.echo(f"wrote {output}")

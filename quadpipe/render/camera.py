@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -19,6 +19,20 @@ SMOOTHING_PAD_TIME_CONSTANTS = 4.0
 """Length of the reflected padding at each end of a tracked path, in filter time constants."""
 
 CAMERA_MODES = ("track", "fixed")
+
+VIEWS: dict[str, tuple[float, float]] = {
+    "three-quarter": (-120.0, -20.0),
+    "side": (-90.0, -8.0),
+    "rear": (0.0, -8.0),
+    "front": (180.0, -8.0),
+    "top": (0.0, -89.0),
+}
+"""Named views of an animal heading +X: (azimuth, elevation) in degrees, as `Camera` takes them.
+`side` looks at its left side (the camera on +Y, looking towards -Y), `rear` from behind
+(looking along +X), `front` from ahead, `top` from above (its head up the picture: -90 would
+make MuJoCo's free camera's up vector undefined), `three-quarter` from its front left, the default."""
+
+DEFAULT_VIEW = "three-quarter"
 
 
 @dataclass(frozen=True)
@@ -82,6 +96,20 @@ class CameraView:
         pixels = np.stack([x, y], axis=-1)
         pixels[depth <= 0] = np.nan
         return pixels
+
+
+def view_camera(view: str, camera: Camera = Camera()) -> Camera:
+    """`camera` turned to one of the named `VIEWS` (its mode, distance and smoothing kept).
+
+    Raises:
+        QuadpipeError: code `bad-camera` for a name that is not one of `VIEWS`.
+    """
+    if view not in VIEWS:
+        raise QuadpipeError.single(
+            "bad-camera", f"view {view!r} is not one of {', '.join(VIEWS)}", hint=f"e.g. --view {DEFAULT_VIEW}"
+        )
+    azimuth, elevation = VIEWS[view]
+    return replace(camera, azimuth_deg=azimuth, elevation_deg=elevation)
 
 
 def camera_views(clip: Clip, camera: Camera = Camera()) -> list[CameraView]:
