@@ -16,6 +16,7 @@ from quadpipe.animals.sizing import FRAME_RATE
 
 if TYPE_CHECKING:
     from quadpipe.bodies import Look
+    from quadpipe.controllers.runtime.variation import Variation
     from quadpipe.core.errors import Location
     from quadpipe.sim.simulation import Result
 
@@ -36,11 +37,13 @@ def bake(
     on_frame: Callable[[float], None] | None = None,
     places: Mapping[str, Location] | None = None,
     look: Look = "body",
+    variation: Variation | None = None,
 ) -> Result:
     """Simulate once (see `quadpipe.sim.simulation.simulate`), write the clip into every output,
     then the metrics JSON: all of them, or none (inside a running `transaction`, at its commit).
     `places` says where each of `parameters` was written (a batch plan's line), for messages;
-    `look` how glTF and USD files draw the animals (`quadpipe.bodies`).
+    `look` how glTF and USD files draw the animals (`quadpipe.bodies`); `variation` how the
+    gait varies from stride to stride (None: not at all).
 
     Raises:
         QuadpipeError: the inputs cannot be loaded, the simulation blew up, a file cannot be
@@ -59,6 +62,7 @@ def bake(
         on_frame=on_frame,
         fps=fps,
         places=places,
+        variation=variation,
     )
     with transaction():
         for output in outputs:

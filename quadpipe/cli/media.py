@@ -17,10 +17,13 @@ from quadpipe.cli.options import (
     OutputFormat,
     SceneOpt,
     SecondsOpt,
+    SeedOpt,
     SetOpt,
+    VariationOpt,
     look_name,
     parameter_places,
     parse_parameters,
+    variation_of,
 )
 from quadpipe.cli.output import write_gait_files
 
@@ -52,6 +55,8 @@ def render(
     view: Annotated[
         View, typer.Option("--view", help="Where the camera looks from, for an animal heading +x.")
     ] = View.three_quarter,
+    variation: VariationOpt = 0.0,
+    seed: SeedOpt = 0,
 ) -> None:
     """Render a clip headless (MuJoCo's renderer) to MP4, GIF, or a PNG contact sheet.
 
@@ -64,6 +69,7 @@ def render(
 
     check_distinct([("-o", output) for output in outputs], [("the clip", clip)] if clip is not None else [])
     camera = view_camera(view.value)
+    varied = variation_of(variation, seed)
     for output in outputs:
         render_format(output)
         check_writable(output)
@@ -81,6 +87,7 @@ def render(
             scene=scene,
             parameters=parse_parameters(parameters),
             places=parameter_places(parameters),
+            variation=varied,
         ).clip
     names = [] if overlays == "none" else [name.strip() for name in overlays.split(",") if name.strip()]
     with transaction():

@@ -19,15 +19,19 @@ from quadpipe.cli.options import (
     MetricsOpt,
     SceneOpt,
     SecondsOpt,
+    SeedOpt,
     SetOpt,
+    VariationOpt,
     look_name,
     parameter_places,
     parse_parameters,
+    variation_of,
 )
 from quadpipe.cli.output import print_warnings, write_gait_files
 
 if TYPE_CHECKING:
     from quadpipe.bodies import Look as LookName
+    from quadpipe.controllers.runtime.variation import Variation
     from quadpipe.preview.base import Preview
 
 
@@ -45,13 +49,26 @@ def simulate(
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
     look: LookOpt = Look.body,
+    variation: VariationOpt = 0.0,
+    seed: SeedOpt = 0,
 ) -> None:
     """Simulate an animal under a controller and write the clip and its metrics.
 
-    Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png
+    Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png --variation 0.03
     """
     _bake_and_report(
-        animal, controller, scene, seconds, [output], metrics, parameters, fps, gait_report, diagram, look_name(look)
+        animal,
+        controller,
+        scene,
+        seconds,
+        [output],
+        metrics,
+        parameters,
+        fps,
+        gait_report,
+        diagram,
+        look_name(look),
+        variation_of(variation, seed),
     )
 
 
@@ -67,6 +84,8 @@ def bake(
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
     look: LookOpt = Look.body,
+    variation: VariationOpt = 0.0,
+    seed: SeedOpt = 0,
 ) -> None:
     """Simulate once and bake the motion into every requested file; the suffix picks the format.
 
@@ -74,7 +93,18 @@ def bake(
     Example: quadpipe bake --animal horse --controller trot --scene hill -o horse.glb -o horse.usdc --gait-report horse.gait.json
     """
     _bake_and_report(
-        animal, controller, scene, seconds, outputs, metrics, parameters, fps, gait_report, diagram, look_name(look)
+        animal,
+        controller,
+        scene,
+        seconds,
+        outputs,
+        metrics,
+        parameters,
+        fps,
+        gait_report,
+        diagram,
+        look_name(look),
+        variation_of(variation, seed),
     )
 
 
@@ -90,6 +120,7 @@ def _bake_and_report(
     gait_report: Path | None,
     diagram: Path | None,
     look: LookName,
+    variation: Variation | None = None,
 ) -> None:
     """`simulate` and `bake`: check every output path first, bake, print the figures, write the gait
     files: every file, or none (they are renamed into place together at the end)."""
@@ -113,6 +144,7 @@ def _bake_and_report(
             places=parameter_places(parameters),
             fps=fps,
             look=look,
+            variation=variation,
         )
         print_warnings(result.warnings)
         typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")

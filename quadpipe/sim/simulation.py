@@ -31,6 +31,7 @@ from quadpipe.world.placement import Placement
 if TYPE_CHECKING:
     from quadpipe.controllers.language.compiler import CompiledController
     from quadpipe.controllers.runtime.runtime import ControllerRuntime
+    from quadpipe.controllers.runtime.variation import Variation
     from quadpipe.world import SceneSetup
 
 FPS_TOLERANCE = 1e-9
@@ -95,6 +96,7 @@ class Simulation:
         setup: the scene built for its animals; its `spec` is compiled here.
         extra_controllers: more `Controller`s run after the runtime (tests push with these).
         metadata: kept in every recorded clip.
+        variation: seeded stride-to-stride variation of the controllers' gaits (None: none).
 
     Attributes:
         setup: the scene built for its animals.
@@ -105,10 +107,15 @@ class Simulation:
         controllers: run before every physics step, in order: the runtime, then the extra ones.
         far_m: a body farther than this from the origin has been flung away (a blow-up).
         warnings: what the run's inputs warn of, once each (a gait the species does not use).
+        variation: what every controller runtime it makes varies by (None: nothing).
     """
 
     def __init__(
-        self, setup: SceneSetup, extra_controllers: Sequence[Controller] = (), metadata: dict[str, str] | None = None
+        self,
+        setup: SceneSetup,
+        extra_controllers: Sequence[Controller] = (),
+        metadata: dict[str, str] | None = None,
+        variation: Variation | None = None,
     ):
         physics.keep_mujoco_quiet()
         self.setup = setup
@@ -116,6 +123,9 @@ class Simulation:
         self.data = mujoco.MjData(self.model)
         self._applied = (self.data.xfrc_applied, self.data.qfrc_applied)  # views made once: cheaper to clear
         self.metadata = dict(metadata or {})
+        self.variation = variation
+        if variation is not None and variation.active:
+            self.metadata |= {"variation": f"{variation.amount:g}", "seed": str(variation.seed)}
         self.warnings: list[Issue] = []
         self.extra_controllers = list(extra_controllers)
         self.runtime: ControllerRuntime | None = None
@@ -133,6 +143,7 @@ class Simulation:
         parameters: Mapping[str, str] | None = None,
         extra_controllers: Sequence[Controller] = (),
         places: Mapping[str, Location] | None = None,
+        variation: Variation | None = None,
     ) -> Simulation:
         """An animal (and the scene's other animals) under a controller, in a scene, at t = 0.
 
@@ -143,6 +154,7 @@ class Simulation:
             parameters: controller parameter overrides (YAML values: "2 HP", "[1, 0, 0]").
             extra_controllers: more `Controller`s run after the main one.
             places: where each of `parameters` was written (a batch plan's line), for messages.
+            variation: seeded stride-to-stride variation of the gait (None: none).
 
         Raises:
             QuadpipeError: the animal, scene or controller cannot be loaded, or do not fit.
@@ -154,7 +166,7 @@ class Simulation:
         built = build_animal(load_animal(animal))
         scene_spec = load_scene(scene or DEFAULT_SCENE)
         metadata = {"controller": controller or "none", "scene": scene_spec.name, "animal": built.animal.name}
-        simulation = cls(build_scene(scene_spec, built), extra_controllers, metadata)
+        simulation = cls(build_scene(scene_spec, built), extra_controllers, metadata, variation)
         if controller:
             compiled, _ = simulation.compile_controller(controller, parameters, places=places)
             simulation.use_controller(compiled)
@@ -232,7 +244,7 @@ class Simulation:
         previous = self.runtime
         if previous is not None:
             previous.release()
-        runtime = None if compiled is None else ControllerRuntime(compiled, self.model, self.placements)
+        runtime = None if compiled is None else ControllerRuntime(compiled, self.model, self.placements, self.variation)
         if carry_over and runtime is not None and previous is not None:
             runtime.adopt(previous)
             runtime.last = previous.last  # the forces acting until the next step, for overlays
@@ -353,6 +365,7 @@ def simulate(
     on_frame: Callable[[float], None] | None = None,
     fps: float = sizing.FRAME_RATE,
     places: Mapping[str, Location] | None = None,
+    variation: Variation | None = None,
 ) -> Result:
     """Build an animal (and scene), run a controller on it, and return the clip and its metrics.
 
@@ -367,6 +380,7 @@ def simulate(
         fps: recorded frames per second (30, the thesis's; a rat's walk needs more to be
             analysed: its stride lasts 0.17 s).
         places: where each of `parameters` was written (a batch plan's line), for messages.
+        variation: seeded stride-to-stride variation of the gait (None: every stride alike).
 
     Raises:
         QuadpipeError: a time or frame rate out of the run limits (before anything is built),
@@ -374,7 +388,13 @@ def simulate(
     """
     check_run(seconds, fps)
     simulation = Simulation.build(
-        animal, controller, scene=scene, parameters=parameters, extra_controllers=extra_controllers, places=places
+        animal,
+        controller,
+        scene=scene,
+        parameters=parameters,
+        extra_controllers=extra_controllers,
+        places=places,
+        variation=variation,
     )
     clip = simulation.record(seconds, on_frame=on_frame, fps=fps)
     metrics = clip_metrics(clip)

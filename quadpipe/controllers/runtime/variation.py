@@ -1,0 +1,130 @@
+"""Natural variation: seeded stride-to-stride timing and a slight left/right asymmetry.
+
+A controller's gait is a clock (its `cycle` elements) and footfalls at fixed phases of it, so
+every stride of a clip is the same stride: a robot's. Real animals vary: the stride time of a
+walking dog or horse varies by 2-5 % from stride to stride (its coefficient of variation), and
+its left and right steps differ by a few per cent. `Variation` puts that back into every
+controller at once, without touching its file: the runtime scales each cycle's phase advance
+by a factor that is drawn anew for each stride (each whole turn of the cycle), and by a fixed
+bias that makes one half of every stride a little faster than the other.
+
+- Timing: stride k of a cycle advances at `1 + amount * z_k` times its period's rate, z_k a
+  standard normal draw clipped to +-`CLIP_SIGMAS`: stride durations vary with a coefficient of
+  variation of about `amount`. The controller still drives the trunk at its target speed, so
+  a shorter stride is also a shorter one on the ground: stride lengths vary with it.
+- Asymmetry: the first half of each stride (from phase 0, the left hind touchdown in the
+  shipped gaits, to 0.5) runs at `1 + bias` and the second half at `1 - bias`, with
+  `bias = +-SIDE_BIAS_SHARE * amount`, its sign drawn once per animal: in a walk, trot or pace
+  the left and the right steps differ in time, and so in length, by about `2 * bias`. The
+  footfall phases move by at most `bias / 2` of a cycle.
+
+Everything is drawn from `numpy.random.default_rng` seeded with (seed, animal, cycle): the
+same seed gives the same clip, byte for byte, and each animal of a scene its own variation.
+`amount` 0 (the default) is no variation at all: the runtime then does not even look.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from quadpipe.core.errors import QuadpipeError
+
+MAX_VARIATION = 0.2
+"""Largest variation: stride times varying by 20 %, an animal that stumbles rather than walks."""
+
+CLIP_SIGMAS = 2.5
+"""Stride factors are drawn from a normal distribution clipped to this many standard deviations
+(so no stride at `MAX_VARIATION` runs at half or double time)."""
+
+SIDE_BIAS_SHARE = 1.0
+"""The left/right bias as a share of the variation (0.03: one half-stride 1.5 % faster)."""
+
+FIRST_STRIDES = 256
+"""Stride factors drawn at first per cycle and animal; twice as many whenever a clip outlasts them."""
+
+
+@dataclass(frozen=True)
+class Variation:
+    """How much a gait varies from stride to stride, and the seed it is drawn from.
+
+    Attributes:
+        amount: coefficient of variation of the stride time (0.03: 3 %), 0 to `MAX_VARIATION`.
+        seed: the random seed; the same seed gives the same clip.
+    """
+
+    amount: float = 0.0
+    seed: int = 0
+
+    @property
+    def active(self) -> bool:
+        """Whether there is any variation."""
+        return self.amount > 0.0
+
+
+def check_variation(amount: float, seed: int, *, names: tuple[str, str] = ("variation", "seed")) -> Variation:
+    """The variation of `amount` and `seed`, checked.
+
+    Args:
+        names: how the messages name the two values (`--variation`, `--seed` on the command line).
+
+    Raises:
+        QuadpipeError: `bad-variation` for an amount that is not a number from 0 to
+            `MAX_VARIATION`, or a seed that is negative.
+    """
+    amount_name, seed_name = names
+    if not (math.isfinite(amount) and 0.0 <= amount <= MAX_VARIATION):
+        raise QuadpipeError.single(
+            "bad-variation",
+            f"{amount_name}: {amount:g} is not a variation from 0 to {MAX_VARIATION:g}",
+            hint="give the stride time's coefficient of variation: 0.03 is a real dog's or horse's, 0 none",
+        )
+    if seed < 0:
+        raise QuadpipeError.single(
+            "bad-variation", f"{seed_name}: {seed} is negative", hint="give a seed from 0 up, e.g. 1"
+        )
+    return Variation(float(amount), int(seed))
+
+
+class StrideClock:
+    """Scales the phase advance of a runtime's cycles, per stride, as `Variation` says.
+
+    Args:
+        variation: how much, and the seed.
+        cycles: number of cycle elements (rows of the runtime's phase table).
+        animals: number of animals (its columns).
+    """
+
+    def __init__(self, variation: Variation, cycles: int, animals: int):
+        self.variation = variation
+        self._generators = [
+            [np.random.default_rng([variation.seed, animal, cycle]) for animal in range(animals)]
+            for cycle in range(cycles)
+        ]
+        signs = [np.random.default_rng([variation.seed, animal]).choice([-1.0, 1.0]) for animal in range(animals)]
+        self.bias = SIDE_BIAS_SHARE * variation.amount * np.array(signs)
+        """Per animal: how much faster than its stride the first half of every stride runs."""
+        self._factors = np.ones((cycles, animals, 0))
+        self._draw(FIRST_STRIDES)
+
+    def _draw(self, strides: int) -> None:
+        """Draw the factors of the next `strides` strides of every cycle and animal."""
+        draws = [[generator.standard_normal(strides) for generator in row] for row in self._generators]
+        clipped = np.clip(np.array(draws).reshape(*self._factors.shape[:2], strides), -CLIP_SIGMAS, CLIP_SIGMAS)
+        self._factors = np.concatenate([self._factors, 1.0 + self.variation.amount * clipped], axis=2)
+
+    def rates(self, phase: np.ndarray) -> np.ndarray:
+        """The factor on each cycle's advance at `phase` (cycles, animals): its stride's, times
+        1 + bias in the first half of the stride, 1 - bias in the second."""
+        strides = np.maximum(np.floor(phase), 0).astype(np.int64)
+        while strides.max(initial=0) >= self._factors.shape[2]:
+            self._draw(self._factors.shape[2])
+        rows, columns = np.indices(phase.shape)
+        half = np.where(phase - np.floor(phase) < 0.5, 1.0, -1.0)
+        return self._factors[rows, columns, strides] * (1.0 + half * self.bias)
+
+    def advance(self, before: np.ndarray, phase: np.ndarray) -> None:
+        """Scale the advance of `phase` (in place) since it was `before`, by the rates at `before`."""
+        phase[:] = before + (phase - before) * self.rates(before)
