@@ -252,8 +252,8 @@ class ControllerRuntime:
         """Add this step's forces to `data.xfrc_applied` and `data.qfrc_applied`.
 
         With a variation, the cycles' phase advance of this step is then scaled by its stride's
-        factor (the forces of the step used the unscaled phase: a difference of a thousandth of
-        a stride's variation).
+        factor (`StrideClock.advance`); the step's own forces saw the unscaled advance, a
+        difference of variation x dt / period: millionths of a cycle.
         """
         if self._clock is None:
             self._run(data, len(self.program.code), finish=True)

@@ -10,13 +10,18 @@ bias that makes one half of every stride a little faster than the other.
 
 - Timing: stride k of a cycle advances at `1 + amount * z_k` times its period's rate, z_k a
   standard normal draw clipped to +-`CLIP_SIGMAS`: stride durations vary with a coefficient of
-  variation of about `amount`. The controller still drives the trunk at its target speed, so
-  a shorter stride is also a shorter one on the ground: stride lengths vary with it.
+  variation of about `amount`. Stride lengths vary much less: the locomotion controllers lay
+  each stance along a fixed path (`half_sweep`, folded into a constant when the controller is
+  compiled), so a quicker stride is mostly a faster one (the dog's walk at 0.03: stride-time
+  CV 0.014-0.026 over three seeds, stride-length CV 0.010-0.012 against 0.010 without). A
+  length factor would need a value the controller files read (docs/gaits.md, "Natural
+  variation").
 - Asymmetry: the first half of each stride (from phase 0, the left hind touchdown in the
   shipped gaits, to 0.5) runs at `1 + bias` and the second half at `1 - bias`, with
   `bias = +-SIDE_BIAS_SHARE * amount`, its sign drawn once per animal: in a walk, trot or pace
-  the left and the right steps differ in time, and so in length, by about `2 * bias`. The
-  footfall phases move by at most `bias / 2` of a cycle.
+  the left and the right steps differ in time by up to `2 * bias` (the dog's walk at 0.03:
+  3-4 %) and in length by 1-2 %, the step of the quicker half the longer. The footfall phases
+  move by at most `bias / 2` of a cycle.
 
 Everything is drawn from `numpy.random.default_rng` seeded with (seed, animal, cycle): the
 same seed gives the same clip, byte for byte, and each animal of a scene its own variation.
@@ -40,7 +45,8 @@ CLIP_SIGMAS = 2.5
 (so no stride at `MAX_VARIATION` runs at half or double time)."""
 
 SIDE_BIAS_SHARE = 1.0
-"""The left/right bias as a share of the variation (0.03: one half-stride 1.5 % faster)."""
+"""The left/right bias as a share of the variation (0.03: one half-stride 3 % quicker than the
+stride, the other 3 % slower)."""
 
 FIRST_STRIDES = 256
 """Stride factors drawn at first per cycle and animal; twice as many whenever a clip outlasts them."""
