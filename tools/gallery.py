@@ -5,15 +5,15 @@ Run from the repository root (about a minute per animal and gait on one core):
     .venv/bin/python tools/gallery.py                      # every animal -> docs/gallery/, docs/gallery.md
     .venv/bin/python tools/gallery.py --animals dog horse -j 2   # those two again, the others' rows kept
 
-For each animal (`configs/animals`) and each of two gaits, its `walk` and the fastest gait of
-its species' repertoire that has a controller (the animal config's `gaits:`, slowest first),
-the gait's controller runs with a goal far ahead for `SETTLE_NATURAL_TIMES` natural times
+For each animal (`configs/animals`) and each of two gaits, its `walk` and its fastest gait
+(`gaits_of`: of its repertoire's gaits with a controller, the one used up to the highest
+Froude number), the gait's controller runs with a goal far ahead for `SETTLE_NATURAL_TIMES` natural times
 sqrt(HP / g) to settle, then `SHOWN_NATURAL_TIMES` more. Two whole strides of the settled part
 (from a left hind touchdown, as `quadpipe analyze` finds them) make the contact sheets, side
 and rear (4 x 3 tiles: six a stride); the whole settled part, seen from the side, makes the
 MP4, in real time. The views are turned to the animal's mean heading over what they show
-(a gait that veers off its goal is still seen from its side). Every file is rendered with the animals' skinned bodies and the default
-overlays (feet down, pelvis trail). The page docs/gallery.md is written last, with each
+(a gait that veers off its goal is still seen from its side). Every file is rendered with
+the animals' skinned bodies and the default overlays (feet down, pelvis trail). The page docs/gallery.md is written last, with each
 clip's measured gait, speed and stride (kept in docs/gallery/gallery.json, so that a run
 for a few animals replaces their rows and keeps the others').
 """
