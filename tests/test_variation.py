@@ -165,3 +165,30 @@ def test_the_command_line_names_the_option_it_refuses(cli, tmp_path):
     result = cli("simulate", "-c", "walk", "-s", "1", "-o", str(tmp_path / "x.npz"), "--variation", "0.5")
     assert result.returncode == 1
     assert "bad-variation: --variation: 0.5" in result.stderr and not (tmp_path / "x.npz").exists()
+
+
+def test_a_batch_plan_carries_its_variation_to_every_job_and_its_files(tmp_path):
+    from quadpipe.batch.jobs import expand_jobs, run_job
+    from quadpipe.batch.plan import load_plan
+    from quadpipe.exporters.npz import load_clip
+
+    path = tmp_path / "plan.yaml"
+    path.write_text(
+        f"animals: [dog]\ncontrollers: [walk]\nseconds: 1\nformats: [npz]\noutput: {tmp_path}\nvariation: 0.03\nseed: 4\n"
+    )
+    (job,) = expand_jobs(load_plan(path))
+    assert (job.variation, job.seed) == (0.03, 4)
+    run_job(job)
+    assert load_clip(job.outputs[0]).metadata.items() >= {"variation": "0.03", "seed": "4"}.items()
+
+
+def test_a_batch_plan_refuses_a_variation_out_of_range_where_it_is_written(tmp_path):
+    from quadpipe.batch.plan import load_plan, plan_from
+
+    path = tmp_path / "plan.yaml"
+    path.write_text("animals: [dog]\ncontrollers: [walk]\nvariation: 0.5\n")
+    with pytest.raises(QuadpipeError) as raised:
+        load_plan(path)
+    assert raised.value.issues[0].where is not None and raised.value.issues[0].where.line == 3
+    with pytest.raises(QuadpipeError):
+        plan_from(None, animals=["dog"], controllers=["walk"], seed=-1)

@@ -221,6 +221,10 @@ def batch(
         typer.Option("--scheduler", help="Run on a Dask cluster: its scheduler's address (tcp://host:8786)."),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars; only the summary.")] = False,
+    variation: Annotated[
+        float | None, typer.Option("--variation", help="Natural stride-to-stride variation of every job (default: 0).")
+    ] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of --variation (default: 0).")] = None,
 ) -> None:
     """Bake every animal x controller x scene of a plan in parallel, locally or on a Dask cluster.
 
@@ -234,7 +238,15 @@ def batch(
     from quadpipe.batch import plan_from, run_batch, summary_table
 
     chosen = plan_from(
-        plan, animals=animals, controllers=controllers, scenes=scenes, seconds=seconds, formats=formats, output=output
+        plan,
+        animals=animals,
+        controllers=controllers,
+        scenes=scenes,
+        seconds=seconds,
+        formats=formats,
+        output=output,
+        variation=variation,
+        seed=seed,
     )
     report = run_batch(chosen, workers=workers, force=force, scheduler=scheduler, progress=not quiet)
     Console().print(summary_table(report))
