@@ -84,7 +84,7 @@ VariationOpt = Annotated[
     float,
     typer.Option(
         "--variation",
-        help="Natural stride-to-stride variation of the gait (0.03: stride times vary 3 %, left and right differ a little); 0: none.",
+        help="Natural stride-to-stride variation of the gait, 0 to 0.2 (0.03: stride times vary 3 %, left and right differ a little); 0: none.",
     ),
 ]
 SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of --variation: the same seed, the same clip.")]

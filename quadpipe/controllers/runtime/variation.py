@@ -2,8 +2,9 @@
 
 A controller's gait is a clock (its `cycle` elements) and footfalls at fixed phases of it, so
 every stride of a clip is the same stride: a robot's. Real animals vary: the stride time of a
-walking dog or horse varies by 2-5 % from stride to stride (its coefficient of variation), and
-its left and right steps differ by a few per cent. `Variation` puts that back into every
+walking dog or horse varies by a few per cent from stride to stride, and its left and right
+steps differ by a few per cent (no source with figures is collected in
+docs/kinematics_references.md yet: 0.03 is a plausible default, not a measured one). `Variation` puts that back into every
 controller at once, without touching its file: the runtime scales each cycle's phase advance
 by a factor that is drawn anew for each stride (each whole turn of the cycle), and by a fixed
 bias that makes one half of every stride a little faster than the other.
@@ -85,7 +86,7 @@ def check_variation(amount: float, seed: int, *, names: tuple[str, str] = ("vari
         raise QuadpipeError.single(
             "bad-variation",
             f"{amount_name}: {amount:g} is not a variation from 0 to {MAX_VARIATION:g}",
-            hint="give the stride time's coefficient of variation: 0.03 is a real dog's or horse's, 0 none",
+            hint="give the stride time's coefficient of variation: 0.03 varies it by about 3 %, 0 not at all",
         )
     if seed < 0:
         raise QuadpipeError.single(
@@ -112,6 +113,7 @@ class StrideClock:
         signs = [np.random.default_rng([variation.seed, animal]).choice([-1.0, 1.0]) for animal in range(animals)]
         self.bias = SIDE_BIAS_SHARE * variation.amount * np.array(signs)
         """Per animal: how much faster than its stride the first half of every stride runs."""
+        self._bias = self.bias.tolist()
         self._factors = np.ones((cycles, animals, 0))
         self._draw(FIRST_STRIDES)
 
@@ -121,16 +123,30 @@ class StrideClock:
         clipped = np.clip(np.array(draws).reshape(*self._factors.shape[:2], strides), -CLIP_SIGMAS, CLIP_SIGMAS)
         self._factors = np.concatenate([self._factors, 1.0 + self.variation.amount * clipped], axis=2)
 
-    def rates(self, phase: np.ndarray) -> np.ndarray:
-        """The factor on each cycle's advance at `phase` (cycles, animals): its stride's, times
-        1 + bias in the first half of the stride, 1 - bias in the second."""
-        strides = np.maximum(np.floor(phase), 0).astype(np.int64)
-        while strides.max(initial=0) >= self._factors.shape[2]:
+    def rate(self, cycle: int, animal: int, phase: float) -> float:
+        """The factor on a cycle's advance at `phase`: its stride's, times 1 + bias in the
+        first half of the stride, 1 - bias in the second."""
+        stride = max(math.floor(phase), 0)
+        while stride >= self._factors.shape[2]:
             self._draw(self._factors.shape[2])
-        rows, columns = np.indices(phase.shape)
-        half = np.where(phase - np.floor(phase) < 0.5, 1.0, -1.0)
-        return self._factors[rows, columns, strides] * (1.0 + half * self.bias)
+        half = 1.0 if phase - math.floor(phase) < 0.5 else -1.0
+        return float(self._factors[cycle, animal, stride]) * (1.0 + half * self._bias[animal])
+
+    def rates(self, phase: np.ndarray) -> np.ndarray:
+        """`rate` for every cycle and animal at `phase` (cycles, animals)."""
+        return np.array(
+            [
+                [self.rate(cycle, animal, value) for animal, value in enumerate(row)]
+                for cycle, row in enumerate(phase.tolist())
+            ]
+        ).reshape(phase.shape)
 
     def advance(self, before: np.ndarray, phase: np.ndarray) -> None:
-        """Scale the advance of `phase` (in place) since it was `before`, by the rates at `before`."""
-        phase[:] = before + (phase - before) * self.rates(before)
+        """Scale the advance of `phase` (in place) since it was `before`, by the rates at `before`.
+
+        Scalar loops over the few cycles and animals: every physics step calls this, and numpy's
+        vectorised operations cost more than they save on arrays this small (10 us a step).
+        """
+        for cycle, (row, new_row) in enumerate(zip(before.tolist(), phase.tolist(), strict=True)):
+            for animal, (value, new) in enumerate(zip(row, new_row, strict=True)):
+                phase[cycle, animal] = value + (new - value) * self.rate(cycle, animal, value)
