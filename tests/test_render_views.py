@@ -92,3 +92,17 @@ def test_render_view_option_changes_the_picture(cli, tmp_path):
     assert np.abs(pictures["side"].astype(int) - pictures["rear"].astype(int)).max(axis=2).mean() > 10
     result = cli("render", str(clip), "-o", str(tmp_path / "x.png"), "--view", "below")
     assert result.returncode != 0 and "below" in result.stderr
+
+
+def test_the_camera_stands_back_from_a_body_long_and_high_for_its_pelvis_height():
+    from quadpipe.bodies import dress
+    from quadpipe.sim.simulation import simulate
+
+    distances = {}
+    for animal in ("dog", "rat"):
+        clip = dress(simulate(animal, "rigid", seconds=0.0).clip)
+        track = clip.animals[0]
+        distances[animal] = render.camera_views(clip)[0].distance / track.pelvis_height
+        assert distances[animal] * track.pelvis_height >= render.camera.MIN_BODY_SIZES * render.camera.body_size(track)
+    assert distances["dog"] == pytest.approx(render.Camera().distance_hp)
+    assert distances["rat"] > 2 * render.Camera().distance_hp

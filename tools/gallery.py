@@ -61,10 +61,6 @@ VIDEO_SIZE = (320, 240)
 FAR_GOAL = "[1000 HP, 0, 0]"
 """A goal far ahead, so that the animal goes straight along +x (the views assume it)."""
 
-DISTANCE_PER_BODY = 2.0
-"""The camera's least distance, in body sizes (`body_size_hp`): the default 4.5 HP is about
-two of the dog's body lengths."""
-
 SHEET_VIEWS = ("side", "rear")
 VIDEO_VIEW = "side"
 
@@ -123,30 +119,13 @@ def heading_deg(clip: Clip) -> float:
     return float(np.degrees(np.arctan2(*forward.mean(axis=0)[::-1])))
 
 
-def body_size_hp(clip: Clip) -> float:
-    """The first animal's skinned body at rest: its larger extent, length or height, in its
-    own pelvis heights (the rat's body is 7 HP long, the dog's 2.2)."""
-    from quadpipe.bodies import dress
-
-    track = dress(clip).animals[0]
-    assert track.body is not None, "a dressed track has a body"
-    extent = track.body.vertices.max(axis=0) - track.body.vertices.min(axis=0)
-    return float(max(extent[0], extent[2]) / track.pelvis_height)
-
-
-def turned_view(view: str, clip: Clip, body_size: float) -> Camera:
+def turned_view(view: str, clip: Clip) -> Camera:
     """The named view (`quadpipe.render.VIEWS`, for an animal heading +x) turned to the
-    animal's own mean heading (a gait that veers off the goal is still seen from its side),
-    and at least `DISTANCE_PER_BODY` body sizes (`body_size_hp`) away: the default 4.5 HP put
-    the camera inside the rat, whose body is long and high for its pelvis height."""
+    animal's own mean heading: a gait that veers off the goal is still seen from its side."""
     from quadpipe.render import view_camera
 
     camera = view_camera(view)
-    return dataclasses.replace(
-        camera,
-        azimuth_deg=camera.azimuth_deg + heading_deg(clip),
-        distance_hp=max(camera.distance_hp, DISTANCE_PER_BODY * body_size),
-    )
+    return dataclasses.replace(camera, azimuth_deg=camera.azimuth_deg + heading_deg(clip))
 
 
 def render_one(animal: str, gait: str) -> dict[str, Any]:
@@ -171,13 +150,12 @@ def render_one(animal: str, gait: str) -> dict[str, Any]:
     strides = report.stride_frames
     first, stop = (strides[0], strides[SHEET_STRIDES]) if len(strides) > SHEET_STRIDES else (0, settled.frame_count)
     shown = frames_between(settled, first, stop)
-    size = body_size_hp(shown)
     OUTPUT.mkdir(parents=True, exist_ok=True)
     stem = f"{animal}_{gait}"
     files = {}
     for view in SHEET_VIEWS:
         files[view] = OUTPUT / f"{stem}_{view}.png"
-        render_clip(shown, files[view], width=TILE[0], height=TILE[1], camera=turned_view(view, shown, size))
+        render_clip(shown, files[view], width=TILE[0], height=TILE[1], camera=turned_view(view, shown))
     files["video"] = OUTPUT / f"{stem}.mp4"
     width, height = VIDEO_SIZE
     render_clip(
@@ -186,7 +164,7 @@ def render_one(animal: str, gait: str) -> dict[str, Any]:
         width=width,
         height=height,
         fps=VIDEO_FPS,
-        camera=turned_view(VIDEO_VIEW, settled, size),
+        camera=turned_view(VIDEO_VIEW, settled),
     )
     return {
         "animal": animal,
