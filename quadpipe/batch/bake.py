@@ -17,6 +17,7 @@ from quadpipe.animals.sizing import FRAME_RATE
 if TYPE_CHECKING:
     from quadpipe.animals.library import AnimalSource
     from quadpipe.bodies import Look
+    from quadpipe.controllers.runtime.variation import Variation
     from quadpipe.core.errors import Location
     from quadpipe.exporters import SkeletonChoice
     from quadpipe.sim.simulation import Result
@@ -40,13 +41,15 @@ def bake(
     look: Look = "body",
     skeleton: SkeletonChoice = "rig",
     direction: Path | None = None,
+    variation: Variation | None = None,
 ) -> Result:
     """Simulate once (see `quadpipe.sim.simulation.simulate`), write the clip into every output,
     then the metrics JSON: all of them, or none (inside a running `transaction`, at its commit).
     `places` says where each of `parameters` was written (a batch plan's line), for messages;
     `look` how glTF and USD files draw the animals (`quadpipe.bodies`); `skeleton` whether an
     animal imported from a rig is written on the rig's joints (`quadpipe.exporters.export_clip`);
-    `direction` a direction file replacing the scene's (docs/direction.md).
+    `direction` a direction file replacing the scene's (docs/direction.md);
+    `variation` how the gait varies from stride to stride (None: not at all).
 
     Raises:
         QuadpipeError: the inputs cannot be loaded, the simulation blew up, a file cannot be
@@ -66,6 +69,7 @@ def bake(
         fps=fps,
         places=places,
         direction=direction,
+        variation=variation,
     )
     with transaction():
         for output in outputs:

@@ -3,6 +3,7 @@ analyze, blender-script."""
 
 from __future__ import annotations
 
+from enum import Enum
 from pathlib import Path
 from typing import Annotated
 
@@ -20,13 +21,26 @@ from quadpipe.cli.options import (
     RolesOpt,
     SceneOpt,
     SecondsOpt,
+    SeedOpt,
     SetOpt,
+    VariationOpt,
     animal_source,
     look_name,
     parameter_places,
     parse_parameters,
+    variation_of,
 )
 from quadpipe.cli.output import write_gait_files
+
+
+class View(str, Enum):
+    """Named camera views of `quadpipe render` (`quadpipe.render.camera.VIEWS`)."""
+
+    three_quarter = "three-quarter"
+    side = "side"
+    rear = "rear"
+    front = "front"
+    top = "top"
 
 
 def render(
@@ -48,17 +62,24 @@ def render(
     limits: LimitsOpt = None,
     roles: RolesOpt = None,
     mass: MassOpt = None,
+    view: Annotated[
+        View, typer.Option("--view", help="Where the camera looks from, for an animal heading +x.")
+    ] = View.three_quarter,
+    variation: VariationOpt = 0.0,
+    seed: SeedOpt = 0,
 ) -> None:
     """Render a clip headless (MuJoCo's renderer) to MP4, GIF, or a PNG contact sheet.
 
-    Example: quadpipe render run.npz -o run.mp4 -o sheet.png   |   quadpipe render --controller spine_walk --scene hill -o walk.mp4
+    Example: quadpipe render run.npz -o run.mp4 -o sheet.png --view side   |   quadpipe render --controller spine_walk --scene hill -o walk.mp4
     """
     from quadpipe.core.atomic import check_writable, transaction
     from quadpipe.core.outputs import check_distinct
-    from quadpipe.render import builtin_overlays, render_clip
+    from quadpipe.render import builtin_overlays, render_clip, view_camera
     from quadpipe.render.writers import render_format
 
     check_distinct([("-o", output) for output in outputs], [("the clip", clip)] if clip is not None else [])
+    camera = view_camera(view.value)
+    varied = variation_of(variation, seed)
     for output in outputs:
         render_format(output)
         check_writable(output)
@@ -79,12 +100,19 @@ def render(
             scene=scene,
             parameters=parse_parameters(parameters),
             places=parameter_places(parameters),
+            variation=varied,
         ).clip
     names = [] if overlays == "none" else [name.strip() for name in overlays.split(",") if name.strip()]
     with transaction():
         for output in outputs:
             render_clip(
-                baked, output, width=width, height=height, overlays=builtin_overlays(baked, names), look=look_name(look)
+                baked,
+                output,
+                width=width,
+                height=height,
+                camera=camera,
+                overlays=builtin_overlays(baked, names),
+                look=look_name(look),
             )
     for output in outputs:
         typer.echo(f"wrote {output}")

@@ -11,6 +11,7 @@ import typer
 if TYPE_CHECKING:
     from quadpipe.animals.library import AnimalSource
     from quadpipe.bodies import Look as LookName
+    from quadpipe.controllers.runtime.variation import Variation
     from quadpipe.core.errors import Location
 
 
@@ -117,6 +118,26 @@ GaitReportOpt = Annotated[
 DiagramOpt = Annotated[
     Path | None, typer.Option("--diagram", help="Also draw the footfall (Hildebrand) diagram to this PNG file.")
 ]
+VariationOpt = Annotated[
+    float,
+    typer.Option(
+        "--variation",
+        help="Natural stride-to-stride variation of the gait, 0 to 0.2 (0.03: stride times vary 3 %, left and right differ a little); 0: none.",
+    ),
+]
+SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of --variation: the same seed, the same clip.")]
+
+
+def variation_of(amount: float, seed: int) -> Variation | None:
+    """The `--variation` and `--seed` options, checked (None: no variation).
+
+    Raises:
+        QuadpipeError: `bad-variation`.
+    """
+    from quadpipe.controllers.runtime.variation import check_variation
+
+    variation = check_variation(amount, seed, names=("--variation", "--seed"))
+    return variation if variation.active else None
 
 
 def parse_parameters(pairs: list[str] | None) -> dict[str, str]:

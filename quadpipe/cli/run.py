@@ -23,19 +23,23 @@ from quadpipe.cli.options import (
     RolesOpt,
     SceneOpt,
     SecondsOpt,
+    SeedOpt,
     SetOpt,
     Skeleton,
     SkeletonOpt,
+    VariationOpt,
     animal_source,
     look_name,
     parameter_places,
     parse_parameters,
+    variation_of,
 )
 from quadpipe.cli.output import print_warnings, write_gait_files
 
 if TYPE_CHECKING:
     from quadpipe.animals.library import AnimalSource
     from quadpipe.bodies import Look as LookName
+    from quadpipe.controllers.runtime.variation import Variation
     from quadpipe.exporters import SkeletonChoice
     from quadpipe.preview.base import Preview
 
@@ -59,10 +63,12 @@ def simulate(
     mass: MassOpt = None,
     skeleton: SkeletonOpt = Skeleton.rig,
     direction: DirectionOpt = None,
+    variation: VariationOpt = 0.0,
+    seed: SeedOpt = 0,
 ) -> None:
     """Simulate an animal under a controller and write the clip and its metrics.
 
-    Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png
+    Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png --variation 0.03
     |   quadpipe simulate -a rig.bvh --roles rig_roles.yaml --mass 25 -c walk -o rig_walk.bvh
     """
     source = animal_source(animal, limits, roles, mass)
@@ -80,6 +86,7 @@ def simulate(
         look_name(look),
         skeleton.value,
         direction,
+        variation_of(variation, seed),
     )
 
 
@@ -100,6 +107,8 @@ def bake(
     mass: MassOpt = None,
     skeleton: SkeletonOpt = Skeleton.rig,
     direction: DirectionOpt = None,
+    variation: VariationOpt = 0.0,
+    seed: SeedOpt = 0,
 ) -> None:
     """Simulate once and bake the motion into every requested file; the suffix picks the format.
 
@@ -122,6 +131,7 @@ def bake(
         look_name(look),
         skeleton.value,
         direction,
+        variation_of(variation, seed),
     )
 
 
@@ -139,6 +149,7 @@ def _bake_and_report(
     look: LookName,
     skeleton: SkeletonChoice,
     direction: Path | None = None,
+    variation: Variation | None = None,
 ) -> None:
     """`simulate` and `bake`: check every output path first, bake, print the figures, write the gait
     files: every file, or none (they are renamed into place together at the end). A skeleton
@@ -170,6 +181,7 @@ def _bake_and_report(
             look=look,
             skeleton=skeleton,
             direction=direction,
+            variation=variation,
         )
         print_warnings(result.warnings)
         typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
@@ -248,6 +260,10 @@ def batch(
         typer.Option("--scheduler", help="Run on a Dask cluster: its scheduler's address (tcp://host:8786)."),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars; only the summary.")] = False,
+    variation: Annotated[
+        float | None, typer.Option("--variation", help="Natural stride-to-stride variation of every job (default: 0).")
+    ] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of --variation (default: 0).")] = None,
 ) -> None:
     """Bake every animal x controller x scene of a plan in parallel, locally or on a Dask cluster.
 
@@ -261,7 +277,15 @@ def batch(
     from quadpipe.batch import plan_from, run_batch, summary_table
 
     chosen = plan_from(
-        plan, animals=animals, controllers=controllers, scenes=scenes, seconds=seconds, formats=formats, output=output
+        plan,
+        animals=animals,
+        controllers=controllers,
+        scenes=scenes,
+        seconds=seconds,
+        formats=formats,
+        output=output,
+        variation=variation,
+        seed=seed,
     )
     report = run_batch(chosen, workers=workers, force=force, scheduler=scheduler, progress=not quiet)
     Console().print(summary_table(report))

@@ -236,6 +236,7 @@ GROUPS: tuple[CodeGroup, ...] = (
         "Running a controller on animals in a scene.",
         {
             "bad-fps": "a frame rate that is not positive or does not divide the physics rate",
+            "bad-variation": "a `--variation` outside 0 to 0.2, or a negative `--seed`",
             "simulation-blew-up": "the simulation diverged (a non-finite state, a bad acceleration, a body flung away)",
             "non-finite-force": "a controller element computed a force, a spring target, stiffness or damping that is NaN or infinite",
         },

@@ -34,6 +34,7 @@ if TYPE_CHECKING:
     from quadpipe.animals.library import AnimalSource
     from quadpipe.controllers.language.compiler import CompiledController
     from quadpipe.controllers.runtime.runtime import ControllerRuntime
+    from quadpipe.controllers.runtime.variation import Variation
     from quadpipe.world import SceneSetup
 
 FPS_TOLERANCE = 1e-9
@@ -98,6 +99,7 @@ class Simulation:
         setup: the scene built for its animals; its `spec` is compiled here.
         extra_controllers: more `Controller`s run after the runtime (tests push with these).
         metadata: kept in every recorded clip.
+        variation: seeded stride-to-stride variation of the controllers' gaits (None: none).
 
     Attributes:
         setup: the scene built for its animals.
@@ -109,10 +111,15 @@ class Simulation:
         controllers: run before every physics step, in order: the runtime, then the extra ones.
         far_m: a body farther than this from the origin has been flung away (a blow-up).
         warnings: what the run's inputs warn of, once each (a gait the species does not use).
+        variation: what every controller runtime it makes varies by (None: nothing).
     """
 
     def __init__(
-        self, setup: SceneSetup, extra_controllers: Sequence[Controller] = (), metadata: dict[str, str] | None = None
+        self,
+        setup: SceneSetup,
+        extra_controllers: Sequence[Controller] = (),
+        metadata: dict[str, str] | None = None,
+        variation: Variation | None = None,
     ):
         physics.keep_mujoco_quiet()
         self.setup = setup
@@ -120,6 +127,9 @@ class Simulation:
         self.data = mujoco.MjData(self.model)
         self._applied = (self.data.xfrc_applied, self.data.qfrc_applied)  # views made once: cheaper to clear
         self.metadata = dict(metadata or {})
+        self.variation = variation
+        if variation is not None and variation.active:
+            self.metadata |= {"variation": f"{variation.amount:g}", "seed": str(variation.seed)}
         self.warnings: list[Issue] = []
         self.extra_controllers = list(extra_controllers)
         self.runtime: ControllerRuntime | None = None
@@ -140,6 +150,7 @@ class Simulation:
         extra_controllers: Sequence[Controller] = (),
         places: Mapping[str, Location] | None = None,
         direction: str | Path | None = None,
+        variation: Variation | None = None,
     ) -> Simulation:
         """An animal (and the scene's other animals) under a controller, in a scene, at t = 0.
 
@@ -151,6 +162,7 @@ class Simulation:
             extra_controllers: more `Controller`s run after the main one.
             places: where each of `parameters` was written (a batch plan's line), for messages.
             direction: a direction file, which replaces the scene's `direction:` (docs/direction.md).
+            variation: seeded stride-to-stride variation of the gait (None: none).
 
         Raises:
             QuadpipeError: the animal, scene, direction or controller cannot be loaded, or do not fit.
@@ -166,7 +178,7 @@ class Simulation:
         setup = build_scene(scene_spec, built, load_direction(direction) if direction is not None else None)
         if setup.timelines:
             metadata[DIRECTION_KEY] = timelines_json(setup.timelines)
-        simulation = cls(setup, extra_controllers, metadata)
+        simulation = cls(setup, extra_controllers, metadata, variation)
         if controller and len(setup.parameter_groups()) > 1:
             simulation.use_groups(simulation.compile_groups(controller, parameters, places=places))
         elif controller:
@@ -240,7 +252,7 @@ class Simulation:
         from quadpipe.controllers.runtime.runtime import ControllerRuntime
 
         self._release()
-        self._runtimes = [ControllerRuntime(compiled, self.model, group) for group, compiled in groups]
+        self._runtimes = [ControllerRuntime(compiled, self.model, group, self.variation) for group, compiled in groups]
         self._groups = list(groups)
         self.runtime = self._runtimes[0]
         self.controllers = [*self._runtimes, *self.extra_controllers]
@@ -286,7 +298,7 @@ class Simulation:
 
         previous = self.runtime
         self._release()
-        runtime = None if compiled is None else ControllerRuntime(compiled, self.model, self.placements)
+        runtime = None if compiled is None else ControllerRuntime(compiled, self.model, self.placements, self.variation)
         self._runtimes = [runtime] if runtime is not None else []
         if carry_over and runtime is not None and previous is not None:
             runtime.adopt(previous)
@@ -413,6 +425,7 @@ def simulate(
     fps: float = sizing.FRAME_RATE,
     places: Mapping[str, Location] | None = None,
     direction: str | Path | None = None,
+    variation: Variation | None = None,
 ) -> Result:
     """Build an animal (and scene), run a controller on it, and return the clip and its metrics.
 
@@ -428,6 +441,7 @@ def simulate(
             analysed: its stride lasts 0.17 s).
         places: where each of `parameters` was written (a batch plan's line), for messages.
         direction: a direction file replacing the scene's `direction:` (docs/direction.md).
+        variation: seeded stride-to-stride variation of the gait (None: every stride alike).
 
     Raises:
         QuadpipeError: a time or frame rate out of the run limits (before anything is built),
@@ -442,6 +456,7 @@ def simulate(
         extra_controllers=extra_controllers,
         places=places,
         direction=direction,
+        variation=variation,
     )
     clip = simulation.record(seconds, on_frame=on_frame, fps=fps)
     metrics = clip_metrics(clip)
