@@ -18,7 +18,7 @@ from quadpipe.anatomy.limits import JointLimits
 from quadpipe.anatomy.rig import assemble_rig
 from quadpipe.anatomy.role_guess import RoleGuess, guess_roles
 from quadpipe.anatomy.rolemap import resolve_roles, write_role_map
-from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, check_coordinates, reroot
+from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, check_coordinates, check_structure, reroot
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.formats import FileFormat, FormatTable
 from quadpipe.core.textfiles import missing_file
@@ -124,6 +124,7 @@ def load_skeleton(
     problems = check_anatomy(resolution.raw, roles)
     if problems:
         raise QuadpipeError(problems)
+    check_structure(resolution.raw)  # no loop before re-rooting walks up the parents
     pelvis = next(name for name, role in roles.items() if role == "pelvis")
     skeleton = assemble_rig(reroot(resolution.raw, pelvis), resolution.roles, file_raw=resolution.raw)
     reader_warnings = tuple(
