@@ -31,7 +31,6 @@ the `units` argument says otherwise. Joints carry no main axis.
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,7 +40,7 @@ from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
 from quadpipe.core import limits
 from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.textfiles import read_text
-from quadpipe.importers.bvh_motion import Motion, pose_at
+from quadpipe.importers.bvh_motion import Motion, finite_number, pose_at
 
 CHANNEL_NAMES = {f"{axis}{kind}" for axis in "xyz" for kind in ("position", "rotation")}
 """Valid CHANNELS entries, lower-cased."""
@@ -139,11 +138,8 @@ class _Parser:
         return line[words[0].column - 1 : words[-1].column - 1 + len(words[-1].text)]
 
     def number(self, token: _Token, what: str) -> float:
-        try:
-            value = float(token.text)
-        except ValueError:
-            value = math.nan
-        if not math.isfinite(value):
+        value = finite_number(token.text)
+        if value is None:
             self.fail(
                 token, "bvh-bad-number", f"{token.text!r} is not a number ({what})", "write a plain decimal number"
             )

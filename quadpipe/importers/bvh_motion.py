@@ -115,15 +115,21 @@ class Motion:
         return int(token.text)
 
     def number(self, token: _Token) -> float:
-        try:
-            value = float(token.text)
-        except ValueError:
-            value = math.nan
-        if not math.isfinite(value):
+        value = finite_number(token.text)
+        if value is None:
             self.fail(
                 token, "bvh-bad-number", f"{token.text!r} is not a number (MOTION)", "write a plain decimal number"
             )
         return value
+
+
+def finite_number(text: str) -> float | None:
+    """`text` as a finite float, or None (not a number, NaN or infinite)."""
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return value if math.isfinite(value) else None
 
 
 def axis_rotation(axis: str, degrees: float) -> np.ndarray:
