@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from quadpipe.anatomy.role_guess import guess_roles
+from quadpipe.anatomy.role_guess import guess_roles, short_leg_roles
 from quadpipe.anatomy.role_names import name_side
 from quadpipe.anatomy.rolemap import apply_role_map, load_role_map, resolve_roles, write_role_map
 from quadpipe.anatomy.roles import ROLES
@@ -132,6 +132,73 @@ def test_guessing_skips_extra_joints_evenly_and_warns(reference: Skeleton) -> No
     assert "Bip01 Neck2b" not in resolution.roles or "Bip01 Neck2" not in resolution.roles
     assert [w.code for w in resolution.warnings] == ["guessed-chain"]
     assert resolution.roles["Bip01 Head"] == "head"
+
+
+def without(raw: RawSkeleton, *names: str) -> RawSkeleton:
+    """The skeleton with joints taken out, their children hung on their parents (where they are);
+    a joint left without children ends where its first child began."""
+    parent = {joint.name: joint.parent for joint in raw.joints}
+
+    def kept_parent(name: str | None) -> str | None:
+        while name in names:
+            name = parent[name]
+        return name
+
+    joints = [replace(j, parent=kept_parent(j.parent)) for j in raw.joints if j.name not in names]
+    first_child = {}
+    for joint in reversed(raw.joints):
+        first_child[joint.parent] = joint.position
+    parents = {joint.parent for joint in joints}
+    ends = [j if j.name in parents or j.end else replace(j, end=first_child[j.name]) for j in joints]
+    return replace(raw, joints=tuple(ends))
+
+
+@pytest.mark.parametrize(
+    ("prefix", "count", "values", "made"),
+    [
+        ("lf", 3, ["lf_shoulder", "lf_elbow", "lf_wrist"], ("lf_scapula", "lf_fpha0", "lf_fpha1")),
+        ("rf", 4, ["rf_scapula", "rf_shoulder", "rf_elbow", "rf_wrist"], ("rf_fpha0", "rf_fpha1")),
+        ("lf", 5, ["lf_scapula", "lf_shoulder", "lf_elbow", "lf_wrist", ("lf_fpha0", "lf_fpha1")], ()),
+        ("lh", 3, ["lh_hip", "lh_knee", "lh_ankle"], ("lh_hpha0", "lh_hpha1", "lh_hpha2")),
+        ("rh", 4, ["rh_hip", "rh_knee", "rh_ankle", ("rh_hpha0", "rh_hpha1", "rh_hpha2")], ()),
+        ("rh", 5, ["rh_hip", "rh_knee", "rh_ankle", "rh_hpha0", ("rh_hpha1", "rh_hpha2")], ()),
+    ],
+)
+def test_a_short_leg_keeps_its_long_bones_and_foot(prefix: str, count: int, values: list, made: tuple) -> None:
+    assert short_leg_roles(prefix, count) == (values, made)
+
+
+def test_short_chains_are_guessed_as_role_chains_and_the_role_map_round_trips(tmp_path: Path) -> None:
+    """2 spine joints, a 2-joint neck, a 2-joint tail, a 3-joint fore leg and a 4-joint hind
+    leg, under a root joint on the ground (`Bip01`, which reaches as far as a toe-less leg):
+    the guess gives chains and makes the scapula and toes; the role map it writes loads to the
+    same skeleton."""
+    path = tmp_path / "short.bvh"
+    raw = read_raw_skeleton(FIXTURES / "reference.bvh")
+    cut = ["Bip01 Spine1", "Bip01 Neck1", "Bip01 Neck2", "Bip01 Neck3", "Bip01 Tail1", "Bip01 Tail2"]
+    cut += ["Bip01 L Clavicle", "Bip01 L Finger0", "Bip01 L Finger01", "Bip01 R Toe0", "Bip01 R Toe01"]
+    short = without(raw, *cut)
+    guess = guess_roles(short)
+    assert (guess.missing, guess.problems) == ((), ())
+    assert guess.roles["Bip01 Spine"] == ("spine0", "spine1", "spine2")
+    assert guess.roles["Bip01 Neck"] == ("neck0", "neck1", "neck2", "neck3", "neck4")
+    assert guess.roles["Bip01 Head"] == "head" and guess.roles["Bip01 Tail"] == ("tail0", "tail1", "tail2", "tail3")
+    assert guess.roles["Bip01 L UpperArm"] == "lf_shoulder" and guess.roles["Bip01 L Hand"] == "lf_wrist"
+    assert guess.roles["Bip01 R Foot"] == ("rh_hpha0", "rh_hpha1", "rh_hpha2")
+    assert guess.synthesised == ("lf_scapula", "lf_fpha0", "lf_fpha1")
+    assert guess.placement()["spine1"] == "Bip01 Spine (chain)"
+    assert guess.placement()["lf_fpha0"] == "(made from neighbours)"
+    from quadpipe.anatomy.rig import assemble_rig
+    from quadpipe.anatomy.skeleton import reroot
+
+    guessed = assemble_rig(reroot(short, "Bip01 Pelvis"), guess.roles, file_raw=short)
+    map_path = tmp_path / "short.roles.yaml"
+    write_role_map(map_path, guess.roles, source=str(path), synthesised=guess.synthesised)
+    text = map_path.read_text()
+    assert "Made from their neighbours (the rig has no joint for them): lf_scapula" in text
+    mapped = assemble_rig(reroot(short, "Bip01 Pelvis"), apply_role_map(short, load_role_map(map_path))[0], short)
+    assert_same_bones(mapped, guessed, axes=True)
+    assert guessed.pelvis_height == pytest.approx(load_skeleton(REFERENCE).pelvis_height, rel=0.01)
 
 
 @pytest.mark.parametrize(
@@ -279,15 +346,15 @@ bad/bad_channels.bvh:5:11: error bvh-bad-channels: CHANNELS says 6 but lists 5 c
 bad/no_hierarchy.bvh:1:1: error bvh-missing-hierarchy: a BVH file starts with the word HIERARCHY
   hint: is this a BVH file? the skeleton must come first, before MOTION""",
     ("bad/short_leg.bvh", None): """\
-bad/short_leg.bvh: error missing-roles: 1 of the 39 roles could not be guessed from the joints' names and layout: lf_fpha1
+bad/short_leg.bvh: error missing-roles: 4 of the 39 roles could not be guessed from the joints' names and layout: lf_elbow, lf_wrist, lf_fpha0, lf_fpha1
   hint: `quadpipe roles bad/short_leg.bvh -o roles.yaml` writes what was guessed; complete it and pass it with --roles roles.yaml
 bad/short_leg.bvh: note guessed-roles: pelvis 'Bip01 Pelvis' and thorax 'Bip01 Spine3': the two joints where several chains meet
 bad/short_leg.bvh: note guessed-roles: spine: 3 joint(s) from 'Bip01 Spine' for 3 role(s) spine0..spine2
 bad/short_leg.bvh: note guessed-roles: left hind leg (side from its names): 6 joint(s) from 'Bip01 L Thigh' for 6 role(s) lh_hip..lh_hpha2
 bad/short_leg.bvh: note guessed-roles: right hind leg (side from its names): 6 joint(s) from 'Bip01 R Thigh' for 6 role(s) rh_hip..rh_hpha2
 bad/short_leg.bvh: note guessed-roles: tail: 4 joint(s) from 'Bip01 Tail' for 4 role(s) tail0..tail3
-bad/short_leg.bvh: note guessed-roles: left front leg (side from its names): 5 joint(s) from 'Bip01 L Clavicle' for 6 role(s) lf_scapula..lf_fpha1; too short: lf_fpha1 not placed
 bad/short_leg.bvh: note guessed-roles: right front leg (side from its names): 6 joint(s) from 'Bip01 R Clavicle' for 6 role(s) rf_scapula..rf_fpha1
+bad/short_leg.bvh: note guessed-roles: left front leg (side from its names): 2 joint(s) from 'Bip01 L Clavicle' for 6 role(s) lf_scapula..lf_fpha1; too short: lf_elbow, lf_wrist, lf_fpha0, lf_fpha1 not placed
 bad/short_leg.bvh: note guessed-roles: neck and head: 6 joint(s) from 'Bip01 Neck' for 6 role(s) neck0..head""",
     ("reference.bvh", "bad/unknown_role.roles.yaml"): """\
 bad/unknown_role.roles.yaml:4:18: error unknown-role: 'lh_femur' (for 'Bip01 L Thigh') is not a role of the reference hierarchy
