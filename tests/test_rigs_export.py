@@ -347,6 +347,46 @@ def test_a_rig_in_other_units_and_axes_is_written_in_them(cli, tmp_path):
     assert error < POSITION_TOLERANCE_HP, f"{error:.2e} HP"
 
 
+CHANNEL_RIGS = {
+    "horse_frontback.bvh": "Zrotation Yrotation Xrotation, the root's positions after its rotations",
+    "deer_short.bvh": "Xrotation Yrotation Zrotation, bones split into chains (their joints move)",
+}
+"""BVH rigs whose CHANNELS are not quadpipe's own layout."""
+
+ROUND_TRIP_SECONDS = 1.0
+
+
+@pytest.mark.parametrize("name", CHANNEL_RIGS)
+def test_a_bvh_rig_keeps_its_channels_and_reads_back_where_the_simulation_put_it(name, tmp_path):
+    """Baked onto the rig, read back by quadpipe's importer at several frames: the rig's names,
+    hierarchy and channel orders, every joint within 1e-4 HP of the simulation."""
+    from quadpipe.exporters import export_clip
+    from quadpipe.exporters.bvh import POSITION_CHANNELS
+    from quadpipe.sim.simulation import simulate
+
+    rig = FIXTURES / "rigs" / name
+    clip = simulate(str(rig), "walk", seconds=ROUND_TRIP_SECONDS).clip
+    path = export_clip(clip, tmp_path / "baked.bvh")
+    source = read_raw_skeleton(rig)
+    written = read_raw_skeleton(path, units=source.units)
+    assert [(j.name, j.parent) for j in written.joints] == [(j.name, j.parent) for j in source.joints]
+    assert written.joints[0].channels == source.joints[0].channels
+    prepended = 0
+    for before, after in zip(source.joints, written.joints):
+        rotations = tuple(c for c in before.channels if c.endswith("rotation"))
+        assert after.channels in (before.channels, POSITION_CHANNELS + rotations), after.name
+        prepended += after.channels != before.channels
+    assert (prepended > 0) == ("chains" in CHANNEL_RIGS[name])
+    track = on_rig(clip.animals[0])
+    assert track.rig is not None
+    frames = track.positions.shape[0]
+    for frame in (0, frames // 2, frames - 1):
+        posed = read_raw_skeleton(path, rest_frame=frame, units=source.units)
+        points = np.array([joint.position for joint in posed.joints]) * UNIT_TO_METRES[source.units]
+        error = np.abs(points @ track.rig.axes.T - track.positions[frame]).max() / track.pelvis_height
+        assert error < POSITION_TOLERANCE_HP, f"frame {frame}: {error:.2e} HP"
+
+
 def test_a_rig_with_spaces_in_its_names_bakes_to_valid_usd(cli, tmp_path):
     """A Biped-style rig (`Bip01 L Thigh`): USD joint paths are made valid, jointNames keep the names."""
     from pxr import Usd, UsdSkel

@@ -25,6 +25,7 @@ class RigJoint:
         offset: its rest position minus the drive bone's rest start, metres, body frame.
         end: where its bone ends relative to it (an end site), metres, body frame, if the file says.
         line: its line in the file, for messages.
+        channels: its animation channels as the file lists them (BVH), empty if none.
     """
 
     name: str
@@ -34,6 +35,7 @@ class RigJoint:
     offset: np.ndarray
     end: np.ndarray | None = None
     line: int | None = None
+    channels: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)

@@ -43,6 +43,9 @@ class JointRecord:
         role: the role the file itself assigns, if any.
         line: line of the joint in the file, for messages.
         column: column of the joint in the file, for messages.
+        channels: the joint's animation channels as the file lists them (BVH `CHANNELS`:
+            `Xposition`, `Zrotation`...; their order is its rotation order), empty when the
+            format has none.
     """
 
     name: str
@@ -53,6 +56,7 @@ class JointRecord:
     role: str | None = None
     line: int | None = None
     column: int | None = None
+    channels: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
