@@ -393,6 +393,32 @@ def read_maya(tmp_path: Path, body: str) -> dict[str, tuple[float, ...]]:
     return {j.name: tuple(round(v, 9) + 0.0 for v in j.position) for j in raw.joints}
 
 
+def test_maya_joint_frames_are_the_joints_own_axes(tmp_path: Path) -> None:
+    """Joint orient 90 deg about Z turns local X onto world Y; a child rotated 90 deg about X
+    turns further; the parent's scale does not show in the frames (hand-computed)."""
+    path = tmp_path / "frames.ma"
+    path.write_text(
+        "//Maya ASCII 2020 scene\n"
+        'createNode joint -n "A";\n\tsetAttr ".s" -type "double3" 2 2 2 ;\n\tsetAttr ".jo" -type "double3" 0 0 90 ;\n'
+        'createNode joint -n "B" -p "A";\n\tsetAttr ".t" -type "double3" 1 0 0 ;\n'
+        '\tsetAttr ".r" -type "double3" 90 0 0 ;\n'
+    )
+    frames = {joint.name: np.array(joint.frame) for joint in read_ma(path).joints}
+    np.testing.assert_allclose(frames["A"], [[0, 1, 0], [-1, 0, 0], [0, 0, 1]], atol=1e-12)
+    np.testing.assert_allclose(frames["B"], [[0, 1, 0], [0, 0, 1], [1, 0, 0]], atol=1e-12)
+
+
+def test_bvh_joint_frames_are_the_files_axes_or_the_rest_frames_turn(tmp_path: Path) -> None:
+    path = tmp_path / "turn.bvh"
+    path.write_text(
+        "HIERARCHY\nROOT Root\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation "
+        "Yrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.04\n0 0 0 90 0 0\n"
+    )
+    assert read_raw_skeleton(path, units="cm").joints[0].frame == ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+    turned = np.array(read_raw_skeleton(path, rest_frame=0, units="cm").joints[0].frame)
+    np.testing.assert_allclose(turned, [[0, 1, 0], [-1, 0, 0], [0, 0, 1]], atol=1e-12)  # Rz(90): X onto Y
+
+
 def test_group_transform_moves_its_joints(tmp_path: Path) -> None:
     positions = read_maya(
         tmp_path,

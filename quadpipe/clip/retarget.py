@@ -7,8 +7,10 @@ the rig's names and hierarchy (extra bones included), each joint following its b
 rig's own rest offset. Every exporter writes the result as it writes a track of roles, so the
 rig's joints come out in glTF, USD and BVH alike (`bake --skeleton rig`, the default).
 
-Bind frames stay world-aligned, as for the roles (see `quadpipe.clip.model`): the rig's joint
-positions are kept, its joint orientations are not read by the importers.
+The track's frames stay world-aligned at rest, as for the roles (see `quadpipe.clip.model`);
+the binding keeps each joint's own orientation (Maya's joint orient and rotations, a BVH's
+axes), which glTF and USD write as the joints' bind orientations (`quadpipe.clip.bind`), and
+BVH rigs their own channel order (`quadpipe.exporters.bvh`).
 """
 
 from __future__ import annotations

@@ -18,7 +18,10 @@ handedness is kept), lengths in **centimetres** (quadpipe's BVH importer reads c
   joint keeps the BVH rig's own CHANNELS line: its channel order and so its rotation order
   (`Xrotation Yrotation Zrotation` is Rx Ry Rz), position channels where the file had them
   (and in front of its rotations where it moves and the file had none). A joint whose
-  rotation channels do not name each axis once gets the layout above instead.
+  rotation channels do not name each axis once gets the layout above instead. A BVH rig
+  keeps its zero pose too: each joint's OFFSET and channels are in its parent's frame at the
+  file's zero pose (`joint_frames`), so a mocap file read at `--rest-frame` comes back with
+  its own OFFSETs.
 - `End Site` under each leaf bone (head, tail tip, toes) at the bone's end.
 - `Frame Time` = 1 / fps. Angles are unwrapped frame to frame (no 360-degree jumps).
 
@@ -81,10 +84,11 @@ def bvh_text(clip: Clip) -> str:
         )
     track = clip.animals[0]  # roles run parents first: bone 0 is the root
     layout = channel_layout(track)
+    frames = joint_frames(track)
     lines = ["HIERARCHY"]
-    _write_joint(track, 0, 0, layout, lines)
+    _write_joint(track, 0, 0, (layout, frames, _into_parent(track, frames)), lines)
     lines += ["MOTION", f"Frames: {track.positions.shape[0]}", f"Frame Time: {1.0 / clip.fps:.8f}"]
-    lines += [_numbers(row) for row in motion_rows(track, layout)]
+    lines += [_numbers(row) for row in motion_rows(track, layout, frames)]
     return "\n".join(lines) + "\n"
 
 
@@ -104,6 +108,27 @@ def file_frame(track: AnimalTrack) -> tuple[np.ndarray, float]:
     if track.rig is not None and on_its_rig(track):
         return track.rig.axes.T, 1.0 / UNIT_TO_METRES[track.rig.units]
     return Y_UP_AXES, CM_PER_M
+
+
+def joint_frames(track: AnimalTrack) -> np.ndarray:
+    """(B, 3, 3) each joint's axes (columns, quadpipe's frame) at the file's zero pose, where its
+    channels are all zero: the file's own axes, or a BVH rig's own joint frames (the turn of
+    each joint at `--rest-frame`: `quadpipe.anatomy.binding.RigJoint.bind`), so that the file
+    keeps its zero pose (its OFFSETs) and its channels turn from it."""
+    axes, _ = file_frame(track)
+    rig = track.rig
+    if rig is not None and on_its_rig(track) and all(joint.channels for joint in rig.joints):
+        binds = rig.binds
+        if binds is not None:
+            return binds
+    return np.tile(axes.T, (len(track.roles), 1, 1))
+
+
+def _into_parent(track: AnimalTrack, frames: np.ndarray) -> np.ndarray:
+    """(B, 3, 3) rows taking quadpipe's frame to each joint's parent's zero-pose axes (the file's
+    axes for the root), where its OFFSET, positions and rotations are written."""
+    axes, _ = file_frame(track)
+    return np.array([axes if parent < 0 else frames[parent].T for parent in track.parents])
 
 
 def channel_layout(track: AnimalTrack) -> list[tuple[str, ...]]:
@@ -134,11 +159,19 @@ def moving_joints(track: AnimalTrack) -> np.ndarray:
     return (track.parents < 0) | (strays > MOVING_JOINT_M)
 
 
-def _write_joint(track: AnimalTrack, index: int, depth: int, layout: list[tuple[str, ...]], lines: list[str]) -> None:
-    """Append the HIERARCHY block of joint `index` and, recursively, of its children."""
+def _write_joint(
+    track: AnimalTrack,
+    index: int,
+    depth: int,
+    joints: tuple[list[tuple[str, ...]], np.ndarray, np.ndarray],
+    lines: list[str],
+) -> None:
+    """Append the HIERARCHY block of joint `index` and, recursively, of its children; `joints`
+    holds every joint's channels, zero-pose frame (`joint_frames`) and `_into_parent` rows."""
+    layout, frames, into = joints
     pad = INDENT * depth
-    axes, per_metre = file_frame(track)
-    offset = axes @ rest_offsets(track)[index] * per_metre
+    _, per_metre = file_frame(track)
+    offset = into[index] @ rest_offsets(track)[index] * per_metre
     root = track.parents[index] < 0
     lines += [
         f"{pad}{'ROOT' if root else 'JOINT'} {track.roles[index]}",
@@ -148,9 +181,9 @@ def _write_joint(track: AnimalTrack, index: int, depth: int, layout: list[tuple[
     ]
     children = np.flatnonzero(track.parents == index)
     for child in children:
-        _write_joint(track, int(child), depth + 1, layout, lines)
+        _write_joint(track, int(child), depth + 1, joints, lines)
     if children.size == 0:
-        end = axes @ (track.rest_end[index] - track.rest_start[index]) * per_metre
+        end = frames[index].T @ (track.rest_end[index] - track.rest_start[index]) * per_metre
         lines += [
             f"{pad}{INDENT}End Site",
             f"{pad}{INDENT}{{",
@@ -173,14 +206,15 @@ def hierarchy_order(track: AnimalTrack) -> list[int]:
     return order
 
 
-def motion_rows(track: AnimalTrack, layout: list[tuple[str, ...]]) -> np.ndarray:
+def motion_rows(track: AnimalTrack, layout: list[tuple[str, ...]], frames: np.ndarray) -> np.ndarray:
     """(F, C) channel values per frame, joints in hierarchy order, each joint's channels in its
-    `layout` order: positions (file units and axes) and angles in its rotation order."""
+    `layout` order: positions (file units, its parent's zero-pose axes) and angles in its
+    rotation order (its turn from its zero-pose frame `frames`, in its parent's)."""
     translations, rotations = local_poses(track)
-    axes, per_metre = file_frame(track)
-    in_file = np.concatenate([rotations[..., :1], rotations[..., 1:] @ axes.T], axis=-1)  # a proper rotation
-    matrices = to_matrix(in_file)
-    positions = translations @ axes.T * per_metre
+    _, per_metre = file_frame(track)
+    into = _into_parent(track, frames)
+    matrices = into[None] @ to_matrix(rotations) @ frames[None]
+    positions = np.einsum("bij,fbj->fbi", into, translations) * per_metre
     columns = []
     for index in hierarchy_order(track):
         order = "".join(c[0].upper() for c in layout[index] if c.lower().endswith("rotation"))

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import NoReturn
 
-from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
+from quadpipe.anatomy.skeleton import IDENTITY_FRAME, JointRecord, RawSkeleton
 from quadpipe.core import limits
 from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.textfiles import read_text
@@ -90,6 +90,7 @@ class _Joint:
             end=self.end,
             line=self.line,
             channels=self.written_channels,
+            frame=IDENTITY_FRAME,
         )
 
 

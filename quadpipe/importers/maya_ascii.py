@@ -18,7 +18,9 @@ World positions follow Maya's own matrices (row vectors, `p' = p * M`; Maya node
 
 with `R` in the node's rotate order, `RA` (rotate axis) and `JO` (joint orient) in xyz order,
 and `IS` the inverse of the scale connected to the joint's `.is` (segment scale compensate).
-A joint's main axis is its world-space local Z axis (Maya's bend axis for joints oriented
+A joint's own frame (`JointRecord.frame`) is its world matrix's rotation: its local axes in
+the world, which a clip baked onto the rig keeps as its bind orientation. A joint's main axis
+is its world-space local Z axis (Maya's bend axis for joints oriented
 "xyz, y up"). Joints without children come back as ordinary joints: `assemble` takes a leaf
 bone's end from its single child.
 """
@@ -37,7 +39,13 @@ from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
 from quadpipe.core import limits
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.textfiles import read_text
-from quadpipe.importers.maya_matrices import euler_matrix, scale_matrix, shear_matrix, translation_matrix
+from quadpipe.importers.maya_matrices import (
+    euler_matrix,
+    joint_frame,
+    scale_matrix,
+    shear_matrix,
+    translation_matrix,
+)
 from quadpipe.importers.maya_mel import MelScript, Token, flag_values, strip_type_flag
 
 MAYA_HEADER = "//Maya"
@@ -416,6 +424,7 @@ class _Reader(MelScript):
                     position=tuple(float(v) * self.unit_factor for v in world[3, :3]),  # type: ignore[arg-type]
                     axis=tuple(float(v) / norm for v in z_axis) if norm > 1e-12 else None,  # type: ignore[arg-type]
                     line=joint.line,
+                    frame=joint_frame(world),
                 )
             )
         if not records:
