@@ -408,6 +408,33 @@ def test_maya_joint_frames_are_the_joints_own_axes(tmp_path: Path) -> None:
     np.testing.assert_allclose(frames["B"], [[0, 1, 0], [0, 0, 1], [1, 0, 0]], atol=1e-12)
 
 
+def test_maya_rest_frame_takes_the_keys_of_the_animation_curves(tmp_path: Path) -> None:
+    """A curve keys A.rz 0 at frame 1 and 90 deg at frame 10 (and 2 cm on B.ty at 10): frame 10
+    turns B onto +Y; a frame between keys, and a file without curves, are refused."""
+    path = tmp_path / "keyed.ma"
+    path.write_text(
+        "//Maya ASCII 2020 scene\ncurrentUnit -l centimeter -a degree;\n"
+        'createNode joint -n "A";\ncreateNode joint -n "B" -p "A";\n\tsetAttr ".t" -type "double3" 10 0 0 ;\n'
+        'createNode animCurveTA -n "A_rotateZ";\n\tsetAttr ".tan" 18;\n\tsetAttr -s 2 ".ktv[0:1]"  1 0 10 90;\n'
+        'createNode animCurveTL -n "B_translateY";\n\tsetAttr -s 2 ".ktv[0:1]"  1 0 10 2;\n'
+        'connectAttr "A_rotateZ.o" "A.rz";\nconnectAttr "B_translateY.o" "B.ty";\n'
+    )
+
+    def b_at(frame: int | None) -> tuple[float, ...]:
+        return tuple(round(v, 9) + 0.0 for v in read_ma(path, rest_frame=frame).joints[1].position)
+
+    assert (b_at(1), b_at(10)) == ((10.0, 0.0, 0.0), (-2.0, 10.0, 0.0))
+    assert b_at(None) == (10.0, 0.0, 0.0) and read_ma(path).warnings[0].code == "ma-driven-joints"
+    with pytest.raises(QuadpipeError) as caught:
+        read_ma(path, rest_frame=5)
+    [issue] = caught.value.issues
+    assert issue.code == "rest-frame-out-of-range" and issue.where is not None and issue.where.line == 6
+    assert "2 animation curve(s)" in issue.message and "A_rotateZ (1..10 (2 keys))" in issue.message
+    with pytest.raises(QuadpipeError) as caught:
+        load_skeleton(FIXTURES / "reference.ma", rest_frame=1)
+    assert caught.value.issues[0].code == "no-motion"
+
+
 def test_bvh_joint_frames_are_the_files_axes_or_the_rest_frames_turn(tmp_path: Path) -> None:
     path = tmp_path / "turn.bvh"
     path.write_text(
