@@ -293,7 +293,7 @@ def _place_limbs(
     hub: str,
     chains: Sequence[str],
     legs: tuple[str, str],
-    leg_chain: tuple[str, ...],
+    leg_bones: tuple[str, ...],
     axial: tuple[str, tuple[str, ...]],
     forward: np.ndarray,
     report: _Report,
@@ -308,10 +308,10 @@ def _place_limbs(
     for (side, reason), path in zip(_sides(tree, paths, forward, hub), paths):
         prefix = legs[0] if side == "left" else legs[1]
         label = f"{side} {kind} leg ({reason})"
-        if MIN_LEG_JOINTS <= len(path) < len(leg_chain):
+        if MIN_LEG_JOINTS <= len(path) < len(leg_bones):
             _fit_short_leg(tree, path, prefix, label, report)
         else:
-            _fit(path, tuple(f"{prefix}_{bone}" for bone in leg_chain), label, report, spread=False)
+            _fit(path, tuple(f"{prefix}_{bone}" for bone in leg_bones), label, report, spread=False)
     axial_label, axial_roles = axial
     if rest:
         path = _axial_path(tree, max(rest, key=tree.depth))
