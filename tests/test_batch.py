@@ -164,6 +164,58 @@ def test_command_line_errors_say_where_they_come_from():
     assert caught.value.issues[0].where.file == "<command line>"
 
 
+RIG = FIXTURES / "rigs_out" / "dog_short.bvh"
+RIG_ROLES = FIXTURES / "rigs_out" / "dog_short_roles.yaml"
+
+
+def test_roles_and_mass_reach_the_skeleton_file_animals(tmp_path, monkeypatch):
+    """Given at the top, in an override for one rig, and on the command line: each rig job
+    carries its role map (an absolute path) and mass; a built-in animal's job neither."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "other.bvh").write_text(RIG.read_text())
+    path = write_plan(
+        tmp_path,
+        f"animals: [dog, {RIG}, other.bvh]\ncontrollers: [rigid]\nroles: {RIG_ROLES}\nmass: 30\n"
+        "overrides:\n  - animal: other\n    mass: 12.5\n",
+    )
+    jobs = expand_jobs(load_plan(path))
+    assert [(job.name, job.roles, job.mass_kg) for job in jobs] == [
+        ("dog_rigid_flat", None, None),
+        ("dog_short_rigid_flat", str(RIG_ROLES), 30.0),
+        ("other_rigid_flat", str(RIG_ROLES), 12.5),
+    ]
+    plan = plan_from(None, animals=[f"dog,{RIG}"], controllers=["rigid"], roles=RIG_ROLES, mass=20.0)
+    assert [(job.roles, job.mass_kg) for job in expand_jobs(plan)] == [(None, None), (str(RIG_ROLES), 20.0)]
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "column"),
+    [
+        ("animals: [dog]\ncontrollers: [rigid]\nroles: rig_roles.yaml\n", 3, 8),
+        (f"animals: [dog, {RIG}]\ncontrollers: [rigid]\noverrides:\n  - animal: dog\n    mass: 30\n", 5, 11),
+    ],
+)
+def test_roles_or_mass_for_no_skeleton_file_are_refused_at_their_place(tmp_path, text, line, column):
+    path = write_plan(tmp_path, text)
+    with pytest.raises(QuadpipeError) as caught:
+        load_plan(path)
+    [issue] = caught.value.issues
+    assert (issue.code, issue.where.line, issue.where.column) == ("unused-option", line, column)
+    with pytest.raises(QuadpipeError) as caught:
+        plan_from(None, animals=["dog"], controllers=["rigid"], mass=30.0)
+    assert caught.value.issues[0].code == "unused-option" and caught.value.issues[0].where.file == "<command line>"
+
+
+def test_a_batch_job_bakes_a_rig_with_its_role_map_and_mass(tmp_path):
+    from quadpipe.exporters.npz import load_clip
+
+    job = Job(str(RIG), "rigid", "flat", SECONDS, ("npz", "bvh"), str(tmp_path), roles=str(RIG_ROLES), mass_kg=30.0)
+    result = run_job(job)
+    assert result.outcome is Outcome.ok, result.error
+    assert load_clip(tmp_path / "dog_short_rigid_flat.npz").animals[0].mass_kg == pytest.approx(30.0)
+    assert "JOINT Jaw" in (tmp_path / "dog_short_rigid_flat.bvh").read_text()  # on the rig's own joints
+
+
 def test_two_configs_with_the_same_stem_are_refused(tmp_path):
     for folder in ("a", "b"):
         (tmp_path / folder).mkdir()

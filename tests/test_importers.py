@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from quadpipe.anatomy.role_guess import guess_roles
+from quadpipe.anatomy.role_guess import guess_roles, short_leg_roles
 from quadpipe.anatomy.role_names import name_side
 from quadpipe.anatomy.rolemap import apply_role_map, load_role_map, resolve_roles, write_role_map
 from quadpipe.anatomy.roles import ROLES
@@ -132,6 +132,73 @@ def test_guessing_skips_extra_joints_evenly_and_warns(reference: Skeleton) -> No
     assert "Bip01 Neck2b" not in resolution.roles or "Bip01 Neck2" not in resolution.roles
     assert [w.code for w in resolution.warnings] == ["guessed-chain"]
     assert resolution.roles["Bip01 Head"] == "head"
+
+
+def without(raw: RawSkeleton, *names: str) -> RawSkeleton:
+    """The skeleton with joints taken out, their children hung on their parents (where they are);
+    a joint left without children ends where its first child began."""
+    parent = {joint.name: joint.parent for joint in raw.joints}
+
+    def kept_parent(name: str | None) -> str | None:
+        while name in names:
+            name = parent[name]
+        return name
+
+    joints = [replace(j, parent=kept_parent(j.parent)) for j in raw.joints if j.name not in names]
+    first_child = {}
+    for joint in reversed(raw.joints):
+        first_child[joint.parent] = joint.position
+    parents = {joint.parent for joint in joints}
+    ends = [j if j.name in parents or j.end else replace(j, end=first_child[j.name]) for j in joints]
+    return replace(raw, joints=tuple(ends))
+
+
+@pytest.mark.parametrize(
+    ("prefix", "count", "values", "made"),
+    [
+        ("lf", 3, ["lf_shoulder", "lf_elbow", "lf_wrist"], ("lf_scapula", "lf_fpha0", "lf_fpha1")),
+        ("rf", 4, ["rf_scapula", "rf_shoulder", "rf_elbow", "rf_wrist"], ("rf_fpha0", "rf_fpha1")),
+        ("lf", 5, ["lf_scapula", "lf_shoulder", "lf_elbow", "lf_wrist", ("lf_fpha0", "lf_fpha1")], ()),
+        ("lh", 3, ["lh_hip", "lh_knee", "lh_ankle"], ("lh_hpha0", "lh_hpha1", "lh_hpha2")),
+        ("rh", 4, ["rh_hip", "rh_knee", "rh_ankle", ("rh_hpha0", "rh_hpha1", "rh_hpha2")], ()),
+        ("rh", 5, ["rh_hip", "rh_knee", "rh_ankle", "rh_hpha0", ("rh_hpha1", "rh_hpha2")], ()),
+    ],
+)
+def test_a_short_leg_keeps_its_long_bones_and_foot(prefix: str, count: int, values: list, made: tuple) -> None:
+    assert short_leg_roles(prefix, count) == (values, made)
+
+
+def test_short_chains_are_guessed_as_role_chains_and_the_role_map_round_trips(tmp_path: Path) -> None:
+    """2 spine joints, a 2-joint neck, a 2-joint tail, a 3-joint fore leg and a 4-joint hind
+    leg, under a root joint on the ground (`Bip01`, which reaches as far as a toe-less leg):
+    the guess gives chains and makes the scapula and toes; the role map it writes loads to the
+    same skeleton."""
+    path = tmp_path / "short.bvh"
+    raw = read_raw_skeleton(FIXTURES / "reference.bvh")
+    cut = ["Bip01 Spine1", "Bip01 Neck1", "Bip01 Neck2", "Bip01 Neck3", "Bip01 Tail1", "Bip01 Tail2"]
+    cut += ["Bip01 L Clavicle", "Bip01 L Finger0", "Bip01 L Finger01", "Bip01 R Toe0", "Bip01 R Toe01"]
+    short = without(raw, *cut)
+    guess = guess_roles(short)
+    assert (guess.missing, guess.problems) == ((), ())
+    assert guess.roles["Bip01 Spine"] == ("spine0", "spine1", "spine2")
+    assert guess.roles["Bip01 Neck"] == ("neck0", "neck1", "neck2", "neck3", "neck4")
+    assert guess.roles["Bip01 Head"] == "head" and guess.roles["Bip01 Tail"] == ("tail0", "tail1", "tail2", "tail3")
+    assert guess.roles["Bip01 L UpperArm"] == "lf_shoulder" and guess.roles["Bip01 L Hand"] == "lf_wrist"
+    assert guess.roles["Bip01 R Foot"] == ("rh_hpha0", "rh_hpha1", "rh_hpha2")
+    assert guess.synthesised == ("lf_scapula", "lf_fpha0", "lf_fpha1")
+    assert guess.placement()["spine1"] == "Bip01 Spine (chain)"
+    assert guess.placement()["lf_fpha0"] == "(made from neighbours)"
+    from quadpipe.anatomy.rig import assemble_rig
+    from quadpipe.anatomy.skeleton import reroot
+
+    guessed = assemble_rig(reroot(short, "Bip01 Pelvis"), guess.roles, file_raw=short)
+    map_path = tmp_path / "short.roles.yaml"
+    write_role_map(map_path, guess.roles, source=str(path), synthesised=guess.synthesised)
+    text = map_path.read_text()
+    assert "Made from their neighbours (the rig has no joint for them): lf_scapula" in text
+    mapped = assemble_rig(reroot(short, "Bip01 Pelvis"), apply_role_map(short, load_role_map(map_path))[0], short)
+    assert_same_bones(mapped, guessed, axes=True)
+    assert guessed.pelvis_height == pytest.approx(load_skeleton(REFERENCE).pelvis_height, rel=0.01)
 
 
 @pytest.mark.parametrize(
@@ -279,15 +346,15 @@ bad/bad_channels.bvh:5:11: error bvh-bad-channels: CHANNELS says 6 but lists 5 c
 bad/no_hierarchy.bvh:1:1: error bvh-missing-hierarchy: a BVH file starts with the word HIERARCHY
   hint: is this a BVH file? the skeleton must come first, before MOTION""",
     ("bad/short_leg.bvh", None): """\
-bad/short_leg.bvh: error missing-roles: 1 of the 39 roles could not be guessed from the joints' names and layout: lf_fpha1
+bad/short_leg.bvh: error missing-roles: 4 of the 39 roles could not be guessed from the joints' names and layout: lf_elbow, lf_wrist, lf_fpha0, lf_fpha1
   hint: `quadpipe roles bad/short_leg.bvh -o roles.yaml` writes what was guessed; complete it and pass it with --roles roles.yaml
 bad/short_leg.bvh: note guessed-roles: pelvis 'Bip01 Pelvis' and thorax 'Bip01 Spine3': the two joints where several chains meet
 bad/short_leg.bvh: note guessed-roles: spine: 3 joint(s) from 'Bip01 Spine' for 3 role(s) spine0..spine2
 bad/short_leg.bvh: note guessed-roles: left hind leg (side from its names): 6 joint(s) from 'Bip01 L Thigh' for 6 role(s) lh_hip..lh_hpha2
 bad/short_leg.bvh: note guessed-roles: right hind leg (side from its names): 6 joint(s) from 'Bip01 R Thigh' for 6 role(s) rh_hip..rh_hpha2
 bad/short_leg.bvh: note guessed-roles: tail: 4 joint(s) from 'Bip01 Tail' for 4 role(s) tail0..tail3
-bad/short_leg.bvh: note guessed-roles: left front leg (side from its names): 5 joint(s) from 'Bip01 L Clavicle' for 6 role(s) lf_scapula..lf_fpha1; too short: lf_fpha1 not placed
 bad/short_leg.bvh: note guessed-roles: right front leg (side from its names): 6 joint(s) from 'Bip01 R Clavicle' for 6 role(s) rf_scapula..rf_fpha1
+bad/short_leg.bvh: note guessed-roles: left front leg (side from its names): 2 joint(s) from 'Bip01 L Clavicle' for 6 role(s) lf_scapula..lf_fpha1; too short: lf_elbow, lf_wrist, lf_fpha0, lf_fpha1 not placed
 bad/short_leg.bvh: note guessed-roles: neck and head: 6 joint(s) from 'Bip01 Neck' for 6 role(s) neck0..head""",
     ("reference.bvh", "bad/unknown_role.roles.yaml"): """\
 bad/unknown_role.roles.yaml:4:18: error unknown-role: 'lh_femur' (for 'Bip01 L Thigh') is not a role of the reference hierarchy
@@ -324,6 +391,59 @@ def read_maya(tmp_path: Path, body: str) -> dict[str, tuple[float, ...]]:
     path.write_text("//Maya ASCII 2020 scene\n" + body)
     raw = read_ma(path)
     return {j.name: tuple(round(v, 9) + 0.0 for v in j.position) for j in raw.joints}
+
+
+def test_maya_joint_frames_are_the_joints_own_axes(tmp_path: Path) -> None:
+    """Joint orient 90 deg about Z turns local X onto world Y; a child rotated 90 deg about X
+    turns further; the parent's scale does not show in the frames (hand-computed)."""
+    path = tmp_path / "frames.ma"
+    path.write_text(
+        "//Maya ASCII 2020 scene\n"
+        'createNode joint -n "A";\n\tsetAttr ".s" -type "double3" 2 2 2 ;\n\tsetAttr ".jo" -type "double3" 0 0 90 ;\n'
+        'createNode joint -n "B" -p "A";\n\tsetAttr ".t" -type "double3" 1 0 0 ;\n'
+        '\tsetAttr ".r" -type "double3" 90 0 0 ;\n'
+    )
+    frames = {joint.name: np.array(joint.frame) for joint in read_ma(path).joints}
+    np.testing.assert_allclose(frames["A"], [[0, 1, 0], [-1, 0, 0], [0, 0, 1]], atol=1e-12)
+    np.testing.assert_allclose(frames["B"], [[0, 1, 0], [0, 0, 1], [1, 0, 0]], atol=1e-12)
+
+
+def test_maya_rest_frame_takes_the_keys_of_the_animation_curves(tmp_path: Path) -> None:
+    """A curve keys A.rz 0 at frame 1 and 90 deg at frame 10 (and 2 cm on B.ty at 10): frame 10
+    turns B onto +Y; a frame between keys, and a file without curves, are refused."""
+    path = tmp_path / "keyed.ma"
+    path.write_text(
+        "//Maya ASCII 2020 scene\ncurrentUnit -l centimeter -a degree;\n"
+        'createNode joint -n "A";\ncreateNode joint -n "B" -p "A";\n\tsetAttr ".t" -type "double3" 10 0 0 ;\n'
+        'createNode animCurveTA -n "A_rotateZ";\n\tsetAttr ".tan" 18;\n\tsetAttr -s 2 ".ktv[0:1]"  1 0 10 90;\n'
+        'createNode animCurveTL -n "B_translateY";\n\tsetAttr -s 2 ".ktv[0:1]"  1 0 10 2;\n'
+        'connectAttr "A_rotateZ.o" "A.rz";\nconnectAttr "B_translateY.o" "B.ty";\n'
+    )
+
+    def b_at(frame: int | None) -> tuple[float, ...]:
+        return tuple(round(v, 9) + 0.0 for v in read_ma(path, rest_frame=frame).joints[1].position)
+
+    assert (b_at(1), b_at(10)) == ((10.0, 0.0, 0.0), (-2.0, 10.0, 0.0))
+    assert b_at(None) == (10.0, 0.0, 0.0) and read_ma(path).warnings[0].code == "ma-driven-joints"
+    with pytest.raises(QuadpipeError) as caught:
+        read_ma(path, rest_frame=5)
+    [issue] = caught.value.issues
+    assert issue.code == "rest-frame-out-of-range" and issue.where is not None and issue.where.line == 6
+    assert "2 animation curve(s)" in issue.message and "A_rotateZ (1..10 (2 keys))" in issue.message
+    with pytest.raises(QuadpipeError) as caught:
+        load_skeleton(FIXTURES / "reference.ma", rest_frame=1)
+    assert caught.value.issues[0].code == "no-motion"
+
+
+def test_bvh_joint_frames_are_the_files_axes_or_the_rest_frames_turn(tmp_path: Path) -> None:
+    path = tmp_path / "turn.bvh"
+    path.write_text(
+        "HIERARCHY\nROOT Root\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation "
+        "Yrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.04\n0 0 0 90 0 0\n"
+    )
+    assert read_raw_skeleton(path, units="cm").joints[0].frame == ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+    turned = np.array(read_raw_skeleton(path, rest_frame=0, units="cm").joints[0].frame)
+    np.testing.assert_allclose(turned, [[0, 1, 0], [-1, 0, 0], [0, 0, 1]], atol=1e-12)  # Rz(90): X onto Y
 
 
 def test_group_transform_moves_its_joints(tmp_path: Path) -> None:

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from quadpipe.anatomy.rig import chain_shares
 from quadpipe.anatomy.skeleton import UNIT_TO_METRES
@@ -26,6 +27,8 @@ from tests.conftest import FIXTURES, REPO
 from tests.test_exporters import needs_node, node_matrices, read_gltf, run_node, usd_errors
 
 RIGS = FIXTURES / "rigs_out"
+RIG_FIXTURES = FIXTURES / "rigs"
+MANIFEST: dict[str, dict] = yaml.safe_load((RIG_FIXTURES / "rigs.yaml").read_text(encoding="utf-8"))
 RIG = RIGS / "dog_short.bvh"
 ROLE_MAP = RIGS / "dog_short_roles.yaml"
 ZUP_RIG = RIGS / "dog_short_zup_mm.bvh"
@@ -345,6 +348,93 @@ def test_a_rig_in_other_units_and_axes_is_written_in_them(cli, tmp_path):
     body = world * UNIT_TO_METRES["mm"] @ track.rig.axes.T
     error = np.abs(body - expected_positions(track, ZUP_RIG)).max() / track.pelvis_height
     assert error < POSITION_TOLERANCE_HP, f"{error:.2e} HP"
+
+
+CHANNEL_RIGS = {
+    "horse_frontback.bvh": "Zrotation Yrotation Xrotation, the root's positions after its rotations",
+    "deer_short.bvh": "Xrotation Yrotation Zrotation, bones split into chains (their joints move)",
+    "mocap_dog.bvh": "Zrotation Yrotation Xrotation, a zero pose that does not stand (--rest-frame 1)",
+}
+"""BVH rigs whose CHANNELS are not quadpipe's own layout."""
+
+ROUND_TRIP_SECONDS = 1.0
+
+
+def simulate_rig(name: str, monkeypatch: pytest.MonkeyPatch, seconds: float = ROUND_TRIP_SECONDS):
+    """The clip of a rig fixture of tests/fixtures/rigs walking (with its manifest's rest frame)."""
+    from quadpipe.animals import library
+    from quadpipe.sim.simulation import simulate
+
+    rest_frame = MANIFEST[name].get("rest_frame")
+    animal = library.animal_from_files(RIG_FIXTURES / name, library.default_limits_path(), None, None, rest_frame)
+    monkeypatch.setattr(library, "load_animal", lambda _source: animal)
+    return simulate(animal.name, "walk", seconds=seconds).clip
+
+
+@pytest.mark.parametrize("name", CHANNEL_RIGS)
+def test_a_bvh_rig_keeps_its_channels_and_reads_back_where_the_simulation_put_it(name, tmp_path, monkeypatch):
+    """Baked onto the rig, read back by quadpipe's importer at several frames: the rig's names,
+    hierarchy, channel orders and zero pose (its OFFSETs), every joint within 1e-4 HP of the
+    simulation."""
+    from quadpipe.exporters import export_clip
+    from quadpipe.exporters.bvh import POSITION_CHANNELS
+
+    clip = simulate_rig(name, monkeypatch)
+    path = export_clip(clip, tmp_path / "baked.bvh")
+    source = read_raw_skeleton(RIG_FIXTURES / name)
+    written = read_raw_skeleton(path, units=source.units)
+    assert [(j.name, j.parent) for j in written.joints] == [(j.name, j.parent) for j in source.joints]
+    assert written.joints[0].channels == source.joints[0].channels
+    prepended = 0
+    for before, after in zip(source.joints, written.joints):
+        rotations = tuple(c for c in before.channels if c.endswith("rotation"))
+        assert after.channels in (before.channels, POSITION_CHANNELS + rotations), after.name
+        prepended += after.channels != before.channels
+    assert (prepended > 0) == ("chains" in CHANNEL_RIGS[name])
+    track = on_rig(clip.animals[0])
+    assert track.rig is not None
+    hp = track.pelvis_height / UNIT_TO_METRES[source.units]
+    zero_pose = [np.subtract(j.position, j0.position) for j, j0 in ((j, source.joints[0]) for j in source.joints)]
+    written_zero = [np.subtract(j.position, written.joints[0].position) for j in written.joints]
+    assert np.abs(np.array(written_zero) - zero_pose).max() < POSITION_TOLERANCE_HP * hp, "the file's zero pose"
+    frames = track.positions.shape[0]
+    for frame in (0, frames // 2, frames - 1):
+        posed = read_raw_skeleton(path, rest_frame=frame, units=source.units)
+        points = np.array([joint.position for joint in posed.joints]) * UNIT_TO_METRES[source.units]
+        error = np.abs(points @ track.rig.axes.T - track.positions[frame]).max() / track.pelvis_height
+        assert error < POSITION_TOLERANCE_HP, f"frame {frame}: {error:.2e} HP"
+
+
+def test_a_maya_rig_is_bound_with_its_own_joint_orientations(tmp_path, monkeypatch):
+    """wolf_cog.ma (joint orients and rotations): in glTF and USD each joint's bind axes are the
+    rig's own local axes, and on every frame it turns with the bone it rides on, keeping them."""
+    from pxr import Usd, UsdSkel
+
+    from quadpipe.clip.kinematics import normalize, to_matrix
+    from quadpipe.exporters import export_clip
+
+    rig = RIG_FIXTURES / "wolf_cog.ma"
+    clip = simulate_rig(rig.name, monkeypatch)
+    glb, usda = (export_clip(clip, tmp_path / f"wolf{suffix}", look="bones") for suffix in (".glb", ".usda"))
+    track = on_rig(clip.animals[0])
+    assert track.rig is not None
+    own = {j.name: track.rig.axes @ np.array(j.frame).T for j in read_raw_skeleton(rig).joints}
+    assert not np.allclose(own["Pelvis"], np.eye(3), atol=0.1)  # the rig's own frames are not the world's
+    document, binary = read_gltf(glb)
+    skin = document["skins"][0]
+    names = [document["nodes"][index]["name"] for index in skin["joints"]]
+    bind = np.linalg.inv(accessor_matrices(document, binary, skin["inverseBindMatrices"]))[:, :3, :3]
+    np.testing.assert_allclose(bind, [Y_UP @ own[name] for name in names], atol=1e-6)
+    world = node_matrices(document, binary, track.positions.shape[0])[:, skin["joints"], :3, :3]
+    index = {name: i for i, name in enumerate(track.roles)}
+    turns = to_matrix(normalize(track.rotations[:, [index[name] for name in names]]))
+    expected = Y_UP @ turns @ np.array([own[name] for name in names])
+    np.testing.assert_allclose(world, expected, atol=1e-5)
+    stage = Usd.Stage.Open(str(usda))
+    skeleton = next(UsdSkel.Skeleton(p) for p in stage.Traverse() if p.IsA(UsdSkel.Skeleton))
+    rows = np.array(skeleton.GetBindTransformsAttr().Get())[:, :3, :3]  # row i: local axis i
+    usd_names = list(skeleton.GetJointNamesAttr().Get())
+    np.testing.assert_allclose(rows, [own[name].T for name in usd_names], atol=1e-6)
 
 
 def test_a_rig_with_spaces_in_its_names_bakes_to_valid_usd(cli, tmp_path):

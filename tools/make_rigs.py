@@ -476,7 +476,8 @@ def mocap_dog() -> tuple[Rig, dict]:
 
 
 def deer_short() -> tuple[Rig, dict]:
-    """Rigify `.L`/`.R` BVH: 2 spine, 2 neck and 3-bone legs, no toes (needs #14 item 2)."""
+    """Rigify `.L`/`.R` BVH: 2 spine, 2 neck and 3-bone legs, no toes (the guess gives chains and
+    makes the scapulae and toes)."""
     names = {
         "pelvis": "hips",
         "spine0": "spine.001",
@@ -495,7 +496,7 @@ def deer_short() -> tuple[Rig, dict]:
             else (("hip", "thigh"), ("knee", "shin"), ("ankle", "foot"))
         )
         names |= {f"{leg}_{kind}": f"{bone}.{side}" for kind, bone in bones}
-    return rig_from_roles("goat", names), {"animal": "goat", "bvh": BvhStyle("XYZ"), "needs": "#14 item 2"}
+    return rig_from_roles("goat", names), {"animal": "goat", "bvh": BvhStyle("XYZ")}
 
 
 def elephant_extras() -> tuple[Rig, dict]:
@@ -647,9 +648,8 @@ def main(output_dir: Path = OUTPUT_DIR) -> None:
                 f"# {file_name}: 3ds Max exported it in inches\n" + yaml.safe_dump(options["roles"]), encoding="utf-8"
             )
             entry["roles"] = roles_path.name
-        for key in ("rest_frame", "needs"):
-            if key in options:
-                entry[key] = options[key]
+        if "rest_frame" in options:
+            entry["rest_frame"] = options["rest_frame"]
         manifest[file_name] = entry
         print(f"wrote {path} ({len(rig.joints)} joints, {path.stat().st_size} bytes)")
     (output_dir / "bad").mkdir(exist_ok=True)

@@ -25,6 +25,10 @@ class RigJoint:
         offset: its rest position minus the drive bone's rest start, metres, body frame.
         end: where its bone ends relative to it (an end site), metres, body frame, if the file says.
         line: its line in the file, for messages.
+        channels: its animation channels as the file lists them (BVH), empty if none.
+        bind: (3, 3) its own orientation at rest, body frame (columns: its local X, Y and Z
+            axes), when the file says (`JointRecord.frame`); a clip baked onto the rig turns
+            it with the bone it rides on.
     """
 
     name: str
@@ -34,6 +38,8 @@ class RigJoint:
     offset: np.ndarray
     end: np.ndarray | None = None
     line: int | None = None
+    channels: tuple[str, ...] = ()
+    bind: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,6 +67,13 @@ class RigBinding:
     def names(self) -> tuple[str, ...]:
         """The rig's joint names, parents first."""
         return tuple(joint.name for joint in self.joints)
+
+    @property
+    def binds(self) -> np.ndarray | None:
+        """(J, 3, 3) every joint's own orientation at rest (`RigJoint.bind`), or None unless the
+        file gives every joint one."""
+        binds = [joint.bind for joint in self.joints]
+        return None if any(bind is None for bind in binds) else np.array(binds)
 
     @property
     def extras(self) -> tuple[str, ...]:

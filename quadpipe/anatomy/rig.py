@@ -370,5 +370,6 @@ def make_binding(raw: RawSkeleton, expansion: Expansion, skeleton: Skeleton) -> 
         position = to_body(joint.position)
         end = None if joint.end is None else to_body(joint.end) - position
         offset = position - skeleton[drive[name]].start
-        joints.append(RigJoint(name, joint.parent, roles, drive[name], offset, end, joint.line))
+        bind = None if joint.frame is None else axes @ np.asarray(joint.frame, dtype=float).T
+        joints.append(RigJoint(name, joint.parent, roles, drive[name], offset, end, joint.line, joint.channels, bind))
     return RigBinding(raw.source, tuple(joints), dict(expansion.carrier), expansion.synthesised, raw.units, axes)

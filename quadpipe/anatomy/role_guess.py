@@ -12,13 +12,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from quadpipe.anatomy.anatomy_check import check_anatomy
+from quadpipe.anatomy.rig import RoleValue, roles_in
 from quadpipe.anatomy.role_names import name_axial, name_end, name_side
-from quadpipe.anatomy.roles import FRONT_CHAIN, HEAD_BONE, HIND_CHAIN, NECK, ROLES, SPINE, TAIL
+from quadpipe.anatomy.roles import FRONT_CHAIN, HEAD_BONE, HIND_CHAIN, NECK, ROLES, SPINE, TAIL, leg_chain
 from quadpipe.anatomy.skeleton import UP_AXES, JointRecord, RawSkeleton, reroot
 from quadpipe.core.errors import Issue
 
 MIN_BRANCHES = 3
 """A joint with this many children or more is a branch point (pelvis or thorax)."""
+
+MIN_LEG_JOINTS = 3
+"""A leg chain needs at least its two long bones and its foot (metacarpus or metatarsus); the
+rest (a scapula, the toes) can be made from those (`quadpipe.anatomy.rig`)."""
 
 
 @dataclass(frozen=True)
@@ -26,20 +31,36 @@ class RoleGuess:
     """What `guess_roles` found.
 
     Attributes:
-        roles: joint name -> role, for the joints it could place.
+        roles: joint name -> role, or a chain of roles spread over the joint's bone and the
+            unplaced joints below it (a chain shorter than its roles: 2 spine bones for 3 roles).
         missing: roles it could not place, in hierarchy order.
         notes: one line per decision (which joint is the pelvis, which chain is which leg
             and why), for messages and for the header of a written role map.
         skips: the notes of chains longer than their roles, where joints were skipped.
         problems: where the guess fails anatomy (`check_anatomy`): legs not under the trunk,
             left legs on the right, a fore leg named as a hind one...
+        synthesised: roles the rig has no joint for, which assembling makes from their
+            neighbours (a scapula above a 3-bone fore leg, toes from a foot's end site).
     """
 
-    roles: dict[str, str]
+    roles: dict[str, RoleValue]
     missing: tuple[str, ...]
     notes: tuple[str, ...]
     skips: tuple[str, ...] = ()
     problems: tuple[Issue, ...] = ()
+    synthesised: tuple[str, ...] = ()
+
+    def placement(self) -> dict[str, str]:
+        """Role -> where the guess put it: a joint's name, `name (chain)` for a role of a chain
+        that joint starts, or `(made from neighbours)`."""
+        placed = {
+            role: f"{name} (chain)"
+            for name, value in self.roles.items()
+            if not isinstance(value, str)
+            for role in value
+        }
+        placed |= {value: name for name, value in self.roles.items() if isinstance(value, str)}
+        return placed | {role: "(made from neighbours)" for role in self.synthesised}
 
     def issues(self, raw: RawSkeleton) -> list[Issue]:
         """Every problem of the guess as one error's issues: the missing roles, what fails
@@ -66,15 +87,17 @@ class RoleGuess:
 class _Report:
     """Roles placed so far and the notes explaining them."""
 
-    roles: dict[str, str] = field(default_factory=dict)
+    roles: dict[str, RoleValue] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     skips: list[str] = field(default_factory=list)
+    synthesised: list[str] = field(default_factory=list)
 
     def result(self, raw: RawSkeleton) -> RoleGuess:
-        placed = set(self.roles.values())
+        placed = {role for value in self.roles.values() for role in roles_in(value)} | set(self.synthesised)
+        synthesised = tuple(role for role in ROLES if role in self.synthesised)
         missing = tuple(role for role in ROLES if role not in placed)
-        problems = tuple(check_anatomy(raw, self.roles))
-        return RoleGuess(dict(self.roles), missing, tuple(self.notes), tuple(self.skips), problems)
+        problems = tuple(check_anatomy(raw, {name: roles_in(value)[0] for name, value in self.roles.items()}))
+        return RoleGuess(dict(self.roles), missing, tuple(self.notes), tuple(self.skips), problems, synthesised)
 
 
 @dataclass
@@ -122,6 +145,11 @@ class _Tree:
         """Height of the lowest point of a subtree (legs reach the ground; tails and necks do not)."""
         return float(np.min(self.points(self.subtree(name)) @ self.up))
 
+    def chains(self, name: str) -> list[str]:
+        """The children of `name` that were not above the root in the file (a COG root on the
+        ground below the pelvis reaches as far as a leg, but is none)."""
+        return [child for child in self.children[name] if child not in self.above]
+
     def is_branch(self, name: str) -> bool:
         return len(self.children[name]) >= MIN_BRANCHES
 
@@ -150,7 +178,10 @@ def guess_roles(raw: RawSkeleton) -> RoleGuess:
     names (`L_`, `Left`, `.l`, `_R`, `Bip01 R ...`, `FL_`) when both legs of a pair say
     opposite sides, else from which side of the body they lie on. A chain follows the
     deepest child at each fork; a chain longer than its roles keeps its first and last joints
-    and evenly spaced ones between. The result is checked against anatomy (`problems`).
+    and evenly spaced ones between. A shorter one is given its roles as a chain (spread over
+    its bones by length; the head keeps the last joint of the neck), and a leg of 3 to 5
+    joints keeps its long bones and its foot, a scapula and toes being made where it has
+    none (`short_leg_roles`). The result is checked against anatomy (`problems`).
     """
     report = _Report()
     found = _find_pelvis_and_thorax(raw)
@@ -168,7 +199,7 @@ def guess_roles(raw: RawSkeleton) -> RoleGuess:
     forward = _forward(tree, pelvis, thorax)
     hind = [c for c in tree.children[pelvis] if c != spine_child and c not in tree.above]
     _place_limbs(tree, pelvis, hind, ("lh", "rh"), HIND_CHAIN, ("tail", TAIL), forward, report)
-    front = tree.children[thorax]
+    front = tree.chains(thorax)
     neck = ("neck and head", (*NECK, HEAD_BONE))
     _place_limbs(tree, thorax, front, ("lf", "rf"), FRONT_CHAIN, neck, forward, report)
     return report.result(raw)
@@ -184,7 +215,7 @@ def _find_pelvis_and_thorax(raw: RawSkeleton) -> tuple[_Tree, tuple[str, str, st
             thorax = _first_branch_below(tree, child)
             if thorax is None:
                 continue
-            others = [c for c in tree.children[hub] if c != child and c not in tree.above], tree.children[thorax]
+            others = [c for c in tree.children[hub] if c != child and c not in tree.above], tree.chains(thorax)
             reach = sum(_two_longest(tree, hub_name, chains) for hub_name, chains in zip((hub, thorax), others))
             key = (round(reach, 6), -depth[hub])
             if best is None or key > best[0]:
@@ -262,7 +293,7 @@ def _place_limbs(
     hub: str,
     chains: Sequence[str],
     legs: tuple[str, str],
-    leg_chain: tuple[str, ...],
+    leg_bones: tuple[str, ...],
     axial: tuple[str, tuple[str, ...]],
     forward: np.ndarray,
     report: _Report,
@@ -276,12 +307,17 @@ def _place_limbs(
     paths = [tree.main_path(start) for start in leg_starts]
     for (side, reason), path in zip(_sides(tree, paths, forward, hub), paths):
         prefix = legs[0] if side == "left" else legs[1]
-        _fit(path, tuple(f"{prefix}_{bone}" for bone in leg_chain), f"{side} {kind} leg ({reason})", report)
-    label, axial_roles = axial
+        label = f"{side} {kind} leg ({reason})"
+        if MIN_LEG_JOINTS <= len(path) < len(leg_bones):
+            _fit_short_leg(tree, path, prefix, label, report)
+        else:
+            _fit(path, tuple(f"{prefix}_{bone}" for bone in leg_bones), label, report, spread=False)
+    axial_label, axial_roles = axial
     if rest:
-        _fit(_axial_path(tree, max(rest, key=tree.depth)), axial_roles, label, report)
+        path = _axial_path(tree, max(rest, key=tree.depth))
+        _fit(path, axial_roles, axial_label, report, last_alone=axial_roles[-1] == HEAD_BONE)
     else:
-        report.notes.append(f"no chain left at {hub!r} for the {label}")
+        report.notes.append(f"no chain left at {hub!r} for the {axial_label}")
 
 
 def _named_axial(tree: _Tree, start: str) -> bool:
@@ -313,21 +349,82 @@ def _sides(tree: _Tree, paths: Sequence[list[str]], forward: np.ndarray, hub: st
     return [("left" if v > 0 else "right", "side from its position") for v in lateral]
 
 
-def _fit(chain: Sequence[str], chain_roles: Sequence[str], label: str, report: _Report) -> None:
-    """Give a chain's joints its roles; note a chain too short, or the joints skipped in a long one."""
+def _fit(
+    chain: Sequence[str],
+    chain_roles: Sequence[str],
+    label: str,
+    report: _Report,
+    *,
+    spread: bool = True,
+    last_alone: bool = False,
+) -> None:
+    """Give a chain's joints its roles; note the joints skipped in a long chain. With `spread`,
+    a short chain's first joint takes its roles as a chain, spread over it and the joints below
+    (with `last_alone`, the last joint keeps the last role: the head ends the neck); without,
+    the roles it has no joints for are not placed."""
     count, needed = len(chain), len(chain_roles)
-    if count >= needed:
-        picks = [round(i * (count - 1) / (needed - 1)) for i in range(needed)] if needed > 1 else [0]
-        chosen = [chain[i] for i in picks]
-    else:
-        chosen = list(chain)
-    report.roles.update(zip(chosen, chain_roles))
     span = f"{chain_roles[0]}..{chain_roles[-1]}" if needed > 1 else chain_roles[0]
     first = f" from {chain[0]!r}" if chain else ""
     text = f"{label}: {count} joint(s){first} for {needed} role(s) {span}"
-    if count < needed:
+    if count >= needed:
+        picks = [round(i * (count - 1) / (needed - 1)) for i in range(needed)] if needed > 1 else [0]
+        chosen = [chain[i] for i in picks]
+        report.roles.update(zip(chosen, chain_roles))
+        if count > needed:
+            text += f"; skipped {', '.join(repr(name) for name in chain if name not in chosen)}"
+            report.skips.append(text)
+    elif spread and count > int(last_alone):
+        shared = tuple(chain_roles[: needed - 1] if last_alone else chain_roles)
+        report.roles[chain[0]] = shared
+        if last_alone:
+            report.roles[chain[-1]] = chain_roles[-1]
+        joints = count - int(last_alone)
+        text += f"; {shared[0]}..{shared[-1]} spread as a chain over {joints} bone(s) from {chain[0]!r}"
+    else:
+        report.roles.update(zip(chain, chain_roles))
         text += f"; too short: {', '.join(chain_roles[count:])} not placed"
-    elif count > needed:
-        text += f"; skipped {', '.join(repr(name) for name in chain if name not in chosen)}"
-        report.skips.append(text)
     report.notes.append(text)
+
+
+def _fit_short_leg(tree: _Tree, chain: Sequence[str], prefix: str, label: str, report: _Report) -> None:
+    """Roles for a leg with fewer joints than roles (`short_leg_roles`); the roles made from
+    neighbours are noted as synthesised when the rig gives what they are made from (a toe
+    chain needs the foot's end: an end site, or one joint below it)."""
+    values, made = short_leg_roles(prefix, len(chain))
+    foot = chain[-1]
+    if any("pha" in role for role in made) and tree.by_name[foot].end is None and len(tree.children[foot]) != 1:
+        made = tuple(role for role in made if "pha" not in role)
+    report.roles.update(zip(chain, values))
+    report.synthesised.extend(made)
+    roles = leg_chain(prefix)
+    text = f"{label}: {len(chain)} joint(s) from {chain[0]!r} for {len(roles)} role(s) {prefix}_{roles[0]}..{prefix}_{roles[-1]}"
+    chained = [value for value in values if not isinstance(value, str)]
+    if chained:
+        text += f"; {chained[0][0]}..{chained[0][-1]} spread as a chain over {chain[-1]!r}"
+    if made:
+        text += f"; made from its neighbours: {', '.join(made)}"
+    report.notes.append(text)
+
+
+def short_leg_roles(prefix: str, count: int) -> tuple[list[RoleValue], tuple[str, ...]]:
+    """The roles of a leg chain of `count` joints (3 to 5), and the roles to synthesise.
+
+    The chain keeps the long bones and the foot (metacarpus or metatarsus). A 3-joint fore leg
+    is humerus, forearm, metacarpus (the scapula is made above it); a longer leg starts at the
+    scapula or femur. Joints beyond the foot are toes, the last taking the remaining toe roles
+    as a chain; a leg ending at its foot gets its toes made from the foot's end.
+    """
+    roles = [f"{prefix}_{bone}" for bone in leg_chain(prefix)]
+    first_toe = next(index for index, role in enumerate(roles) if "pha" in role)
+    start = 1 if prefix.endswith("f") and count < first_toe else 0
+    available = roles[start:]
+    values: list[RoleValue] = list(available[: count - 1])
+    last = count - 1
+    if start + last >= first_toe:
+        tail = tuple(available[last:])
+        values.append(tail[0] if len(tail) == 1 else tail)
+        made: list[str] = []
+    else:
+        values.append(available[last])
+        made = roles[first_toe:]
+    return values, tuple(roles[:start] + made)

@@ -288,7 +288,11 @@ def resolve_roles(raw: RawSkeleton, role_map: str | Path | None = None) -> RoleR
     if any(role not in file_roles for role in guess.missing) or guess.problems:
         raise QuadpipeError(guess.issues(raw))
     named = {j.name for j in raw.joints if j.role}
-    roles = {name: role for name, role in guess.roles.items() if name not in named and role not in file_roles}
+    roles = {
+        name: value
+        for name, value in guess.roles.items()
+        if name not in named and not set(roles_in(value)) & set(file_roles)
+    }
     warnings = tuple(
         Issue(
             "guessed-chain",
@@ -303,24 +307,28 @@ def resolve_roles(raw: RawSkeleton, role_map: str | Path | None = None) -> RoleR
 
 
 def role_map_text(
-    roles: Mapping[str, str],
+    roles: Mapping[str, RoleValue],
     *,
     source: str | None = None,
     missing: Sequence[str] = (),
+    synthesised: Sequence[str] = (),
     units: str | None = None,
     up: str | None = None,
 ) -> str:
-    """A role map YAML document giving `roles` (joint name -> role), in hierarchy order.
+    """A role map YAML document giving `roles` (joint name -> role or chain of roles), in
+    hierarchy order.
 
     Joint names are escaped so that none of them reads as a glob.
     """
     order = {role: index for index, role in enumerate(ROLES)}
-    entries = sorted(roles.items(), key=lambda item: order.get(item[1], len(order)))
+    entries = sorted(roles.items(), key=lambda item: order.get(roles_in(item[1])[0], len(order)))
     header = [
         f"# Role map{f' for {Path(source).name}' if source else ''}, written by quadpipe.",
         "# Keys are joint names (shell globs, case-insensitive); values are roles (`quadpipe roles`).",
         "# Check it, then pass it with --roles.",
     ]
+    if synthesised:
+        header.append(f"# Made from their neighbours (the rig has no joint for them): {', '.join(synthesised)}")
     if missing:
         header.append(f"# Not placed yet: {', '.join(missing)}")
     data: dict[str, Any] = {}
@@ -328,7 +336,7 @@ def role_map_text(
         data["units"] = units
     if up:
         data["up"] = up
-    data["roles"] = {_escape_glob(name): role for name, role in entries}
+    data["roles"] = {_escape_glob(name): role if isinstance(role, str) else list(role) for name, role in entries}
     return "\n".join(header) + "\n" + yaml.safe_dump(data, sort_keys=False, allow_unicode=True, width=1000)
 
 
@@ -336,7 +344,7 @@ def _escape_glob(name: str) -> str:
     return re.sub(r"([*?\[])", r"[\1]", name)
 
 
-def write_role_map(path: str | Path, roles: Mapping[str, str], **options: Any) -> None:
+def write_role_map(path: str | Path, roles: Mapping[str, RoleValue], **options: Any) -> None:
     """Write `role_map_text(roles, **options)` to a file (atomically)."""
     from quadpipe.core.atomic import write_text
 

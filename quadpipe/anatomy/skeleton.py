@@ -30,6 +30,10 @@ UNIT_TO_METRES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
 """Length units a file may declare."""
 
 
+Frame = tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]]
+"""A joint's local X, Y and Z axes (unit vectors)."""
+
+
 @dataclass(frozen=True)
 class JointRecord:
     """One joint as a file describes it, before roles and unit conversion.
@@ -43,6 +47,13 @@ class JointRecord:
         role: the role the file itself assigns, if any.
         line: line of the joint in the file, for messages.
         column: column of the joint in the file, for messages.
+        channels: the joint's animation channels as the file lists them (BVH `CHANNELS`:
+            `Xposition`, `Zrotation`...; their order is its rotation order), empty when the
+            format has none.
+        frame: the joint's own local X, Y and Z axes at rest (unit vectors in the file's
+            axes): Maya's joint orientation (its joint orient, rotate and rotate axis after its
+            parents'), a BVH joint's turn in the pose read (the file's axes at its zero pose);
+            None when the format says nothing.
     """
 
     name: str
@@ -53,6 +64,12 @@ class JointRecord:
     role: str | None = None
     line: int | None = None
     column: int | None = None
+    channels: tuple[str, ...] = ()
+    frame: Frame | None = None
+
+
+IDENTITY_FRAME = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+"""A joint frame along the file's own axes (`JointRecord.frame`)."""
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from quadpipe.batch.bake import METRICS_SUFFIX, bake
-from quadpipe.batch.plan import BatchPlan, expand_names, label, looks_like_path
+from quadpipe.batch.plan import BatchPlan, expand_names, is_skeleton_file, label, looks_like_path
 from quadpipe.controllers.runtime.variation import Variation
 from quadpipe.core.atomic import remove_stale
 from quadpipe.core.errors import Location, QuadpipeError
@@ -41,6 +41,8 @@ class Job:
         parameter_places: where each of them is written in the plan file, as (name, location) pairs.
         variation: stride-to-stride variation of the gait (0: none), drawn from `seed`.
         seed: the variation's seed.
+        roles: absolute path of the role map of a skeleton-file animal (`--roles`).
+        mass_kg: body mass of a skeleton-file animal (`--mass`; None: the mammal rule).
     """
 
     animal: str
@@ -53,6 +55,8 @@ class Job:
     parameter_places: tuple[tuple[str, Location], ...] = ()
     variation: float = 0.0
     seed: int = 0
+    roles: str | None = None
+    mass_kg: float | None = None
 
     @property
     def name(self) -> str:
@@ -109,14 +113,16 @@ def expand_jobs(plan: BatchPlan) -> list[Job]:
 
 def _job(plan: BatchPlan, folder: str, animal: str, controller: str, scene: str) -> Job:
     """One job of the plan, its overrides applied in order."""
-    seconds = plan.seconds
+    seconds, roles, mass = plan.seconds, plan.roles, plan.mass
     parameters: dict[str, Any] = {}
     places: dict[str, Location] = {}
     for index, override in enumerate(plan.overrides):
         if override.selects(label(animal), label(controller), label(scene)):
             seconds = override.seconds or seconds
+            roles, mass = override.roles or roles, override.mass or mass
             parameters |= override.parameters
             places |= plan.parameter_places(index)
+    skeleton = is_skeleton_file(animal)
     return Job(
         animal=_absolute(animal),
         controller=_absolute(controller),
@@ -128,6 +134,8 @@ def _job(plan: BatchPlan, folder: str, animal: str, controller: str, scene: str)
         parameter_places=tuple(places.items()),
         variation=plan.variation,
         seed=plan.seed,
+        roles=str(Path(roles).resolve()) if roles and skeleton else None,
+        mass_kg=mass if skeleton else None,
     )
 
 
@@ -233,8 +241,11 @@ def run_job(job: Job, link: WorkerLink | None = None) -> JobResult:
 
 def _bake(job: Job, link: WorkerLink | None) -> dict:
     """Simulate and write the job's files, all of them or none (`quadpipe.batch.bake`)."""
+    from quadpipe.animals.library import AnimalSource
+
+    animal = AnimalSource(job.animal, roles=job.roles, mass_kg=job.mass_kg) if job.roles or job.mass_kg else job.animal
     result = bake(
-        job.animal,
+        animal,
         job.controller,
         seconds=job.seconds,
         scene=job.scene,

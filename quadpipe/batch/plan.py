@@ -17,7 +17,7 @@ from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fie
 from quadpipe.controllers.runtime.variation import MAX_VARIATION
 from quadpipe.core import configs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
-from quadpipe.core.limits import MAX_SIMULATED_SECONDS
+from quadpipe.core.limits import BODY_MASS_KG, MAX_SIMULATED_SECONDS
 from quadpipe.core.yamlio import YamlDocument, load_yaml, validate_document
 
 ALL = "all"
@@ -74,6 +74,10 @@ Formats = Annotated[
 ]
 
 
+ROLES_DESCRIPTION = "Role map (.yaml) of the skeleton-file animals (`rig.bvh`), as `--roles` of `quadpipe bake`."
+MASS_DESCRIPTION = "Body mass in kg of the skeleton-file animals, as `--mass` of `quadpipe bake`."
+
+
 class JobOverride(BaseModel):
     """Settings for the jobs an override selects (every job when it names no selector).
 
@@ -90,6 +94,8 @@ class JobOverride(BaseModel):
     parameters: dict[str, Any] = Field(
         {}, description="Controller parameter values, as in a controller file (`pedal_force: 0.2 bw`)."
     )
+    roles: str | None = Field(None, min_length=1, description=ROLES_DESCRIPTION)
+    mass: float | None = Field(None, gt=0, description=MASS_DESCRIPTION)
 
     def selects(self, animal: str, controller: str, scene: str) -> bool:
         """Whether this override applies to the job with these labels."""
@@ -115,6 +121,8 @@ class BatchPlan(BaseModel):
         description="Natural stride-to-stride variation of every job's gait (0.03: stride times vary 3 %); 0: none.",
     )
     seed: int = Field(0, ge=0, description="Seed of `variation`: the same seed, the same files.")
+    roles: str | None = Field(None, min_length=1, description=ROLES_DESCRIPTION)
+    mass: float | None = Field(None, gt=0, description=MASS_DESCRIPTION)
     overrides: list[JobOverride] = Field([], description="Per-job settings, applied in order (later ones win).")
     _places: list[dict[str, Location]] = PrivateAttr(default_factory=list)
     """For each override, where each of its parameter values is written in the plan file."""
@@ -133,7 +141,7 @@ def load_plan(path: str | Path) -> BatchPlan:
     """
     doc = load_yaml(path, "batch plan", BatchPlan)
     plan = _validated(doc)
-    issues = _selector_issues(plan, doc)
+    issues = _selector_issues(plan, doc) + _skeleton_option_issues(plan, doc)
     if issues:
         raise QuadpipeError(issues)
     plan._places = [
@@ -154,6 +162,11 @@ def _validated(doc: YamlDocument) -> BatchPlan:
     times += [(("overrides", i, "seconds"), o.seconds) for i, o in enumerate(plan.overrides) if o.seconds is not None]
     for path, seconds in times:
         MAX_SIMULATED_SECONDS.check(seconds, where=doc.locate(path))
+    masses: list[tuple[tuple[str | int, ...], float | None]] = [(("mass",), plan.mass)]
+    masses += [(("overrides", i, "mass"), o.mass) for i, o in enumerate(plan.overrides)]
+    for path, mass in masses:
+        if mass is not None:
+            BODY_MASS_KG.check(mass, "mass", where=doc.locate(path))
     return plan
 
 
@@ -180,6 +193,38 @@ def _selector_issues(plan: BatchPlan, doc: YamlDocument) -> list[Issue]:
     return issues
 
 
+def is_skeleton_file(name: str) -> bool:
+    """Whether an animal is given as a skeleton file (`rig.bvh`), which `roles` and `mass` complete."""
+    from quadpipe.importers import skeleton_readers
+
+    return Path(name).suffix.lower() in skeleton_readers()
+
+
+def _skeleton_option_issues(plan: BatchPlan, doc: YamlDocument) -> list[Issue]:
+    """An `unused-option` issue for each `roles` or `mass` that reaches no skeleton-file animal
+    (given at the top, or in an override whose `animal` selector names none)."""
+    animals = expand_names(plan.animals, "animals")
+    skeletons = [label(name) for name in animals if is_skeleton_file(name)]
+    places: list[tuple[tuple[str | int, ...], str | None]] = [((), None)]
+    places += [(("overrides", i), o.animal) for i, o in enumerate(plan.overrides)]
+    issues = []
+    for path, selector in places:
+        reached = skeletons if selector is None else [name for name in skeletons if name == selector]
+        owner = plan if not path else plan.overrides[int(path[1])]
+        for key in ("roles", "mass"):
+            if getattr(owner, key) is not None and not reached:
+                whose = "the plan's animals" if selector is None else f"animal {selector!r}"
+                issues.append(
+                    Issue(
+                        "unused-option",
+                        f"{key!r} is for animals given as skeleton files (.bvh, .ma, .xml), and {whose} has none",
+                        doc.locate((*path, key)),
+                        "an animal name or config brings its own role map and mass: leave it out",
+                    )
+                )
+    return issues
+
+
 def plan_from(
     path: str | Path | None,
     *,
@@ -191,6 +236,8 @@ def plan_from(
     output: str | Path | None = None,
     variation: float | None = None,
     seed: int | None = None,
+    roles: str | Path | None = None,
+    mass: float | None = None,
 ) -> BatchPlan:
     """A plan from a file (optional) and command-line options, which replace the file's values.
 
@@ -210,6 +257,8 @@ def plan_from(
         "output": None if output is None else str(output),
         "variation": variation,
         "seed": seed,
+        "roles": None if roles is None else str(roles),
+        "mass": mass,
     }
     merged = base | {key: value for key, value in options.items() if value is not None}
     if "animals" not in merged or "controllers" not in merged:
@@ -218,7 +267,11 @@ def plan_from(
             "a batch needs animals and controllers",
             hint="give a plan file, or --animal and --controller (e.g. quadpipe batch -a dog,horse -c spine_walk)",
         )
-    plan = _validated(YamlDocument(data=merged, file=COMMAND_LINE))
+    document = YamlDocument(data=merged, file=COMMAND_LINE)
+    plan = _validated(document)
+    issues = _skeleton_option_issues(plan, document)
+    if issues:
+        raise QuadpipeError(issues)
     if file_plan is not None:  # overrides come only from the file: keep where they are written
         plan._places = file_plan._places
     return plan
@@ -232,8 +285,8 @@ def _split(values: Sequence[str] | None) -> list[str] | None:
 
 
 def looks_like_path(name: str) -> bool:
-    """Whether a config is given by file (`walks/fast.yaml`) rather than by built-in name."""
-    return Path(name).suffix in (".yaml", ".yml") or "/" in name or os.sep in name
+    """Whether a config is given by file (`walks/fast.yaml`, `rig.bvh`) rather than by built-in name."""
+    return Path(name).suffix in (".yaml", ".yml") or "/" in name or os.sep in name or is_skeleton_file(name)
 
 
 def label(name: str) -> str:

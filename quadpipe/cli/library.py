@@ -118,12 +118,12 @@ def roles(
     raw = read_raw_skeleton(skeleton, rest_frame=rest_frame)
     print_warnings(raw.warnings)
     guess = guess_roles(raw)
-    placed = {role: name for name, role in guess.roles.items()}
+    placed = guess.placement()
     print_table(
         f"Roles guessed for {skeleton}", ["role", "joint"], [[role, placed.get(role, "(not placed)")] for role in ROLES]
     )
     if output is not None:
-        write_role_map(output, guess.roles, source=raw.source, missing=guess.missing)
+        write_role_map(output, guess.roles, source=raw.source, missing=guess.missing, synthesised=guess.synthesised)
         typer.echo(f"wrote {output} ({len(guess.roles)} joints placed, {len(guess.missing)} roles missing)")
     issues = guess.issues(raw)
     if issues:

@@ -51,7 +51,11 @@ LimitsOpt = Annotated[
 RolesOpt = Annotated[Path | None, typer.Option("--roles", help="Role map YAML for a skeleton's own bone names.")]
 RestFrameOpt = Annotated[
     int | None,
-    typer.Option("--rest-frame", min=0, help="Take frame N (from 0) of a BVH file's motion as the standing rest pose."),
+    typer.Option(
+        "--rest-frame",
+        min=0,
+        help="Take frame N of the file's motion as the standing rest pose (BVH: from 0; Maya: a keyed frame).",
+    ),
 ]
 
 

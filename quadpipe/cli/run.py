@@ -264,6 +264,8 @@ def batch(
         float | None, typer.Option("--variation", help="Natural stride-to-stride variation of every job (default: 0).")
     ] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Seed of --variation (default: 0).")] = None,
+    roles: RolesOpt = None,
+    mass: MassOpt = None,
 ) -> None:
     """Bake every animal x controller x scene of a plan in parallel, locally or on a Dask cluster.
 
@@ -271,6 +273,7 @@ def batch(
     .metrics.json. Jobs whose files are all there are skipped (--force redoes them); a failing job
     does not stop the others, and the exit code is 1 if any failed. See docs/batch.md.
     Example: quadpipe batch configs/batches/walks.yaml -j 4   |   quadpipe batch -a dog,horse -c spine_walk -f glb -f usdc -s 5
+    |   quadpipe batch -a rig.bvh --roles rig_roles.yaml --mass 25 -c walk,leg_by_leg -f bvh
     """
     from rich.console import Console
 
@@ -286,6 +289,8 @@ def batch(
         output=output,
         variation=variation,
         seed=seed,
+        roles=roles,
+        mass=mass,
     )
     report = run_batch(chosen, workers=workers, force=force, scheduler=scheduler, progress=not quiet)
     Console().print(summary_table(report))

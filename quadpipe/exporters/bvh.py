@@ -14,7 +14,14 @@ handedness is kept), lengths in **centimetres** (quadpipe's BVH importer reads c
   carries a bending chain of roles, see `quadpipe.clip.retarget`) has the root's six channels,
   its position channels holding that offset; every other joint keeps its fixed OFFSET.
 - An animal written on its rig's own joints (`quadpipe.clip.retarget`) keeps the rig file's
-  units and axes instead (a z-up rig in millimetres comes back z-up in millimetres).
+  units and axes instead (a z-up rig in millimetres comes back z-up in millimetres), and each
+  joint keeps the BVH rig's own CHANNELS line: its channel order and so its rotation order
+  (`Xrotation Yrotation Zrotation` is Rx Ry Rz), position channels where the file had them
+  (and in front of its rotations where it moves and the file had none). A joint whose
+  rotation channels do not name each axis once gets the layout above instead. A BVH rig
+  keeps its zero pose too: each joint's OFFSET and channels are in its parent's frame at the
+  file's zero pose (`joint_frames`), so a mocap file read at `--rest-frame` comes back with
+  its own OFFSETs.
 - `End Site` under each leaf bone (head, tail tip, toes) at the bone's end.
 - `Frame Time` = 1 / fps. Angles are unwrapped frame to frame (no 360-degree jumps).
 
@@ -36,8 +43,11 @@ from quadpipe.core.errors import QuadpipeError
 
 CM_PER_M = 100.0
 
-ROOT_CHANNELS = "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"
-JOINT_CHANNELS = "CHANNELS 3 Zrotation Xrotation Yrotation"
+POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
+ROTATION_CHANNELS = ("Zrotation", "Xrotation", "Yrotation")
+"""The channels quadpipe writes: positions (root and moving joints), then rotations Rz Rx Ry."""
+
+AXES = "XYZ"
 
 MOVING_JOINT_M = 1e-6
 """A joint whose offset from its parent strays more than this (1 micrometre) from its rest offset
@@ -49,12 +59,15 @@ DECIMALS = 6
 INDENT = "\t"
 
 
-def zxy_euler_degrees(matrices: np.ndarray) -> np.ndarray:
-    """Angles (z, x, y) in degrees with R = Rz(z) @ Rx(x) @ Ry(y), for (..., 3, 3) rotations."""
-    x = np.arcsin(np.clip(matrices[..., 2, 1], -1.0, 1.0))
-    z = np.arctan2(-matrices[..., 0, 1], matrices[..., 1, 1])
-    y = np.arctan2(-matrices[..., 2, 0], matrices[..., 2, 2])
-    return np.degrees(np.stack([z, x, y], axis=-1))
+def euler_degrees(matrices: np.ndarray, order: str) -> np.ndarray:
+    """Angles in degrees about the axes of `order` ("ZXY": R = Rz(a) @ Rx(b) @ Ry(c)), in that
+    order, for (..., 3, 3) rotations; `order` names each of X, Y and Z once."""
+    i, j, k = (AXES.index(axis) for axis in order)
+    sign = 1.0 if (j - i) % 3 == 1 else -1.0  # +1 for the cyclic orders XYZ, YZX, ZXY
+    middle = np.arcsin(np.clip(sign * matrices[..., i, k], -1.0, 1.0))
+    first = np.arctan2(-sign * matrices[..., j, k], matrices[..., k, k])
+    last = np.arctan2(-sign * matrices[..., i, j], matrices[..., i, i])
+    return np.degrees(np.stack([first, middle, last], axis=-1))
 
 
 def bvh_text(clip: Clip) -> str:
@@ -70,11 +83,12 @@ def bvh_text(clip: Clip) -> str:
             hint="export the scene to .glb or .usd instead, or simulate one animal for BVH",
         )
     track = clip.animals[0]  # roles run parents first: bone 0 is the root
-    moving = moving_joints(track)
+    layout = channel_layout(track)
+    frames = joint_frames(track)
     lines = ["HIERARCHY"]
-    _write_joint(track, 0, 0, moving, lines)
+    _write_joint(track, 0, 0, (layout, frames, _into_parent(track, frames)), lines)
     lines += ["MOTION", f"Frames: {track.positions.shape[0]}", f"Frame Time: {1.0 / clip.fps:.8f}"]
-    lines += [_numbers(row) for row in motion_rows(track, moving)]
+    lines += [_numbers(row) for row in motion_rows(track, layout, frames)]
     return "\n".join(lines) + "\n"
 
 
@@ -83,13 +97,58 @@ def _numbers(values: np.ndarray) -> str:
     return " ".join(f"{v:.{DECIMALS}f}" for v in np.round(values, DECIMALS) + 0.0)
 
 
+def on_its_rig(track: AnimalTrack) -> bool:
+    """Whether the track is on its rig's own joints (`quadpipe.clip.retarget.on_rig`)."""
+    return track.rig is not None and track.roles == track.rig.names
+
+
 def file_frame(track: AnimalTrack) -> tuple[np.ndarray, float]:
     """Rows taking quadpipe's frame to the file's axes, and file units per metre: the rig's own
     units and axes for a track on a rig's joints, else y up in centimetres."""
-    rig = track.rig
-    if rig is not None and track.roles == rig.names:
-        return rig.axes.T, 1.0 / UNIT_TO_METRES[rig.units]
+    if track.rig is not None and on_its_rig(track):
+        return track.rig.axes.T, 1.0 / UNIT_TO_METRES[track.rig.units]
     return Y_UP_AXES, CM_PER_M
+
+
+def joint_frames(track: AnimalTrack) -> np.ndarray:
+    """(B, 3, 3) each joint's axes (columns, quadpipe's frame) at the file's zero pose, where its
+    channels are all zero: the file's own axes, or a BVH rig's own joint frames (the turn of
+    each joint at `--rest-frame`: `quadpipe.anatomy.binding.RigJoint.bind`), so that the file
+    keeps its zero pose (its OFFSETs) and its channels turn from it."""
+    axes, _ = file_frame(track)
+    rig = track.rig
+    if rig is not None and on_its_rig(track) and all(joint.channels for joint in rig.joints):
+        binds = rig.binds
+        if binds is not None:
+            return binds
+    return np.tile(axes.T, (len(track.roles), 1, 1))
+
+
+def _into_parent(track: AnimalTrack, frames: np.ndarray) -> np.ndarray:
+    """(B, 3, 3) rows taking quadpipe's frame to each joint's parent's zero-pose axes (the file's
+    axes for the root), where its OFFSET, positions and rotations are written."""
+    axes, _ = file_frame(track)
+    return np.array([axes if parent < 0 else frames[parent].T for parent in track.parents])
+
+
+def channel_layout(track: AnimalTrack) -> list[tuple[str, ...]]:
+    """Each joint's CHANNELS: `POSITION_CHANNELS` for the root and moving joints, then
+    `ROTATION_CHANNELS`; a rig joint keeps its own (see the module docstring)."""
+    moving = moving_joints(track)
+    own = [joint.channels for joint in track.rig.joints] if track.rig is not None and on_its_rig(track) else []
+    return [_joint_channels(own[index] if own else (), bool(moves)) for index, moves in enumerate(moving)]
+
+
+def _joint_channels(own: tuple[str, ...], moves: bool) -> tuple[str, ...]:
+    """A joint's own channels when its rotations name each axis once and its positions are
+    complete; positions prepended where it moves and has none; else quadpipe's layout."""
+    positions = sorted(c[0].upper() for c in own if c.lower().endswith("position"))
+    rotations = tuple(c for c in own if c.lower().endswith("rotation"))
+    if sorted(c[0].upper() for c in rotations) != list(AXES):
+        return (POSITION_CHANNELS if moves else ()) + ROTATION_CHANNELS
+    if positions == list(AXES):
+        return own
+    return (POSITION_CHANNELS if moves else ()) + rotations
 
 
 def moving_joints(track: AnimalTrack) -> np.ndarray:
@@ -100,23 +159,31 @@ def moving_joints(track: AnimalTrack) -> np.ndarray:
     return (track.parents < 0) | (strays > MOVING_JOINT_M)
 
 
-def _write_joint(track: AnimalTrack, index: int, depth: int, moving: np.ndarray, lines: list[str]) -> None:
-    """Append the HIERARCHY block of joint `index` and, recursively, of its children."""
+def _write_joint(
+    track: AnimalTrack,
+    index: int,
+    depth: int,
+    joints: tuple[list[tuple[str, ...]], np.ndarray, np.ndarray],
+    lines: list[str],
+) -> None:
+    """Append the HIERARCHY block of joint `index` and, recursively, of its children; `joints`
+    holds every joint's channels, zero-pose frame (`joint_frames`) and `_into_parent` rows."""
+    layout, frames, into = joints
     pad = INDENT * depth
-    axes, per_metre = file_frame(track)
-    offset = axes @ rest_offsets(track)[index] * per_metre
+    _, per_metre = file_frame(track)
+    offset = into[index] @ rest_offsets(track)[index] * per_metre
     root = track.parents[index] < 0
     lines += [
         f"{pad}{'ROOT' if root else 'JOINT'} {track.roles[index]}",
         f"{pad}{{",
         f"{pad}{INDENT}OFFSET {_numbers(offset)}",
-        f"{pad}{INDENT}{ROOT_CHANNELS if moving[index] else JOINT_CHANNELS}",
+        f"{pad}{INDENT}CHANNELS {len(layout[index])} {' '.join(layout[index])}",
     ]
     children = np.flatnonzero(track.parents == index)
     for child in children:
-        _write_joint(track, int(child), depth + 1, moving, lines)
+        _write_joint(track, int(child), depth + 1, joints, lines)
     if children.size == 0:
-        end = axes @ (track.rest_end[index] - track.rest_start[index]) * per_metre
+        end = frames[index].T @ (track.rest_end[index] - track.rest_start[index]) * per_metre
         lines += [
             f"{pad}{INDENT}End Site",
             f"{pad}{INDENT}{{",
@@ -139,21 +206,24 @@ def hierarchy_order(track: AnimalTrack) -> list[int]:
     return order
 
 
-def motion_rows(track: AnimalTrack, moving: np.ndarray) -> np.ndarray:
-    """(F, C) channel values per frame, joints in hierarchy order: each joint's position (the
-    root's and the `moving` ones') then its angles."""
+def motion_rows(track: AnimalTrack, layout: list[tuple[str, ...]], frames: np.ndarray) -> np.ndarray:
+    """(F, C) channel values per frame, joints in hierarchy order, each joint's channels in its
+    `layout` order: positions (file units, its parent's zero-pose axes) and angles in its
+    rotation order (its turn from its zero-pose frame `frames`, in its parent's)."""
     translations, rotations = local_poses(track)
-    axes, per_metre = file_frame(track)
-    in_file = np.concatenate([rotations[..., :1], rotations[..., 1:] @ axes.T], axis=-1)  # a proper rotation
-    angles = zxy_euler_degrees(to_matrix(in_file))
-    angles = np.degrees(np.unwrap(np.radians(angles), axis=0))
-    positions = translations @ axes.T * per_metre
+    _, per_metre = file_frame(track)
+    into = _into_parent(track, frames)
+    matrices = into[None] @ to_matrix(rotations) @ frames[None]
+    positions = np.einsum("bij,fbj->fbi", into, translations) * per_metre
     columns = []
     for index in hierarchy_order(track):
-        if moving[index]:
-            columns.append(positions[:, index])
-        columns.append(angles[:, index])
-    return np.concatenate(columns, axis=1)
+        order = "".join(c[0].upper() for c in layout[index] if c.lower().endswith("rotation"))
+        angles = np.degrees(np.unwrap(np.radians(euler_degrees(matrices[:, index], order)), axis=0))
+        turns = iter(angles.T)
+        for channel in layout[index]:
+            is_position = channel.lower().endswith("position")
+            columns.append(positions[:, index, AXES.index(channel[0].upper())] if is_position else next(turns))
+    return np.stack(columns, axis=1)
 
 
 def export_bvh(clip: Clip, path: Path) -> None:

@@ -149,5 +149,5 @@ def write_guessed_role_map(
     """
     raw = read_raw_skeleton(skeleton_path, rest_frame=rest_frame)
     guess = guess_roles(raw)
-    write_role_map(out_path, guess.roles, source=raw.source, missing=guess.missing)
+    write_role_map(out_path, guess.roles, source=raw.source, missing=guess.missing, synthesised=guess.synthesised)
     return guess

@@ -23,7 +23,9 @@ A joint's rest position is the sum of the OFFSETs from the root down to it; an E
 gives its joint's `end`. Joint names run to the end of their line (`Bip01 L Thigh`). With
 `rest_frame=N` the pose is frame N of the MOTION section instead (frames count from 0): each
 joint turns by its rotation channels in the order its CHANNELS line lists them (intrinsic,
-`Zrotation Xrotation Yrotation` is Rz Rx Ry), and position channels replace its OFFSET.
+`Zrotation Xrotation Yrotation` is Rz Rx Ry), and position channels replace its OFFSET. Each
+joint keeps its CHANNELS list (`JointRecord.channels`), so that a clip baked onto the rig
+writes them back in the same order.
 BVH declares neither units nor axes: quadpipe reads y up and centimetres, or metres when the
 skeleton spans under `METRE_GUESS_SPAN` units (said in a warning); a role map's `units:` or
 the `units` argument says otherwise. Joints carry no main axis.
@@ -36,7 +38,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import NoReturn
 
-from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
+from quadpipe.anatomy.skeleton import IDENTITY_FRAME, JointRecord, RawSkeleton
 from quadpipe.core import limits
 from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.textfiles import read_text
@@ -74,11 +76,22 @@ class _Joint:
     offset: Vector = (0.0, 0.0, 0.0)
     end_offset: Vector | None = None
     channels: tuple[str, ...] = ()
+    """Lower-cased, for reading the motion."""
+    written_channels: tuple[str, ...] = ()
+    """As the file spells them, for writing the rig back."""
 
     def record(self) -> JointRecord:
         """The joint as read, once parsed (the parser requires every joint's OFFSET)."""
         assert self.position is not None, "`_Parser.joint` requires every joint's OFFSET"
-        return JointRecord(name=self.name, parent=self.parent, position=self.position, end=self.end, line=self.line)
+        return JointRecord(
+            name=self.name,
+            parent=self.parent,
+            position=self.position,
+            end=self.end,
+            line=self.line,
+            channels=self.written_channels,
+            frame=IDENTITY_FRAME,
+        )
 
 
 def _moved(point: Vector, offset: Vector) -> Vector:
@@ -259,6 +272,7 @@ class _Parser:
                 "the count must match the channel names on the same line",
             )
         joint.channels = tuple(name.text.lower() for name in names)
+        joint.written_channels = tuple(name.text for name in names)
         for name in names:
             if name.text.lower() not in CHANNEL_NAMES:
                 self.fail(

@@ -163,7 +163,8 @@ def pose_at(
         orientation = parent_turn @ turn
         placed[joint.name] = (orientation, point)
         end = None if joint.end_offset is None else point + orientation @ np.asarray(joint.end_offset, dtype=float)
-        posed.append(replace(record, position=_vector(point), end=None if end is None else _vector(end)))
+        axes = (_vector(orientation[:, 0]), _vector(orientation[:, 1]), _vector(orientation[:, 2]))
+        posed.append(replace(record, position=_vector(point), end=None if end is None else _vector(end), frame=axes))
     return tuple(posed)
 
 

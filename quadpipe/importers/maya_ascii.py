@@ -18,7 +18,9 @@ World positions follow Maya's own matrices (row vectors, `p' = p * M`; Maya node
 
 with `R` in the node's rotate order, `RA` (rotate axis) and `JO` (joint orient) in xyz order,
 and `IS` the inverse of the scale connected to the joint's `.is` (segment scale compensate).
-A joint's main axis is its world-space local Z axis (Maya's bend axis for joints oriented
+A joint's own frame (`JointRecord.frame`) is its world matrix's rotation: its local axes in
+the world, which a clip baked onto the rig keeps as its bind orientation. A joint's main axis
+is its world-space local Z axis (Maya's bend axis for joints oriented
 "xyz, y up"). Joints without children come back as ordinary joints: `assemble` takes a leaf
 bone's end from its single child.
 """
@@ -37,7 +39,23 @@ from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
 from quadpipe.core import limits
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.textfiles import read_text
-from quadpipe.importers.maya_matrices import euler_matrix, scale_matrix, shear_matrix, translation_matrix
+from quadpipe.importers.maya_attributes import (
+    ANGULAR_ATTRIBUTES,
+    ATTRIBUTES,
+    INVERSE_SCALE_NAMES,
+    ONE_VECTORS,
+    ROTATE_ORDER_NAMES,
+    SCALE_NAMES,
+    SSC_NAMES,
+)
+from quadpipe.importers.maya_curves import CURVE_TYPES, KEYS_ATTRIBUTE, OUTPUT_PLUGS, AnimCurve, rest_frame_issues
+from quadpipe.importers.maya_matrices import (
+    euler_matrix,
+    joint_frame,
+    scale_matrix,
+    shear_matrix,
+    translation_matrix,
+)
 from quadpipe.importers.maya_mel import MelScript, Token, flag_values, strip_type_flag
 
 MAYA_HEADER = "//Maya"
@@ -83,49 +101,8 @@ CONSTRAINT_OUTPUTS = {"ct", "ctx", "cty", "ctz", "cr", "crx", "cry", "crz"}
 TARGET_PLUG = re.compile(r"^(?:tg|target)\[(\d+)\]\.")
 """A constraint's input plug from its target `index`: `tg[0].tt`, `tg[0].tpm`, ..."""
 
-_VECTORS = {
-    "t": "translate",
-    "r": "rotate",
-    "s": "scale",
-    "jo": "jointOrient",
-    "ra": "rotateAxis",
-    "rp": "rotatePivot",
-    "sp": "scalePivot",
-    "rpt": "rotatePivotTranslate",
-    "spt": "scalePivotTranslate",
-    "tg[0].tot": "tg[0].targetOffsetTranslate",
-    "tg[0].tor": "tg[0].targetOffsetRotate",
-    "o": "offset",
-}
-_SHEAR_PARTS = {"shxy": "shearXY", "shxz": "shearXZ", "shyz": "shearYZ"}
-ANGULAR_ATTRIBUTES = {"r", "jo", "ra", "tg[0].tor"}
-"""Vector attributes holding angles (in the file's angular unit)."""
-
-ONE_VECTORS = {"s"}
-"""Vector attributes whose default is (1, 1, 1) rather than zero."""
-
 CURRENT_UNIT_FLAGS = {"-l", "-linear", "-a", "-angle", "-t", "-time", "-ua", "-updateAnimation"}
 """Flags of `currentUnit` that take a value."""
-
-
-def _attribute_table() -> dict[str, tuple[str, int | None]]:
-    """Short and long attribute names -> (vector attribute, component index or None)."""
-    table: dict[str, tuple[str, int | None]] = {}
-    for short, long in _VECTORS.items():
-        table[short] = table[long] = (short, None)
-        for index, axis in enumerate("xyz"):
-            table[short + axis] = table[long + axis.upper()] = (short, index)
-    table["sh"] = table["shear"] = ("sh", None)
-    for index, (short, long) in enumerate(_SHEAR_PARTS.items()):
-        table[short] = table[long] = ("sh", index)
-    return table
-
-
-ATTRIBUTES = _attribute_table()
-ROTATE_ORDER_NAMES = {"ro", "rotateOrder"}
-SSC_NAMES = {"ssc", "segmentScaleCompensate"}
-SCALE_NAMES = {"s", "scale"}
-INVERSE_SCALE_NAMES = {"is", "inverseScale"}
 
 
 @dataclass
@@ -171,6 +148,9 @@ class _Reader(MelScript):
         self.radians_per_unit = ANGULAR_UNITS["degree"]
         self.linear_set_at: int | None = None
         self.connections: list[tuple[Token, Token]] = []
+        self.curves: dict[str, AnimCurve] = {}
+        self.rest_frame: int | None = None
+        self.curve: AnimCurve | None = None
         self.commands: dict[str, Callable[[list[Token]], None]] = {
             "createNode": self.create_node,
             "setAttr": self.set_attr,
@@ -190,6 +170,8 @@ class _Reader(MelScript):
             return False  # only setAttr's attribute (its first string) can tell
         node_ref, _, attr = last.text.partition(".")
         known = attr in ATTRIBUTES or attr in ROTATE_ORDER_NAMES or attr in SSC_NAMES
+        if KEYS_ATTRIBUTE.match(attr):
+            return node_ref not in self.curves and (bool(node_ref) or self.curve is None)
         return not known or (not node_ref and self.current is None)
 
     # -- commands -------------------------------------------------------------------------
@@ -227,6 +209,9 @@ class _Reader(MelScript):
         kind = next((t.text for t in statement[1:] if not t.text.startswith("-") and t not in flags.values()), None)
         name = next((v for f, v in flags.items() if f.text in ("-n", "-name")), None)
         parent_ref = next((v for f, v in flags.items() if f.text in ("-p", "-parent")), None)
+        self.curve = None
+        if kind in CURVE_TYPES and name is not None:
+            self.curve = self.curves[name.text] = AnimCurve(name.text, statement[0].line)
         if kind not in TRACKED_TYPES + CONSTRAINT_TYPES:
             self.current = None
             return
@@ -257,6 +242,12 @@ class _Reader(MelScript):
             return
         target_token = statement[attr_index]
         node_ref, _, attr = target_token.text.partition(".")
+        curve = self.curve if not node_ref else self.curves.get(node_ref)
+        if curve is not None and KEYS_ATTRIBUTE.match(attr):
+            keys = strip_type_flag(statement[attr_index + 1 :])
+            if not curve.add_keys([self.number(v) for v in keys]):
+                self.fail(target_token, "ma-bad-value", f"'.{attr}' of {curve.name!r} holds an odd count of numbers")
+            return
         node = self.current if not node_ref else self.find(node_ref)
         if node is None:
             return
@@ -391,9 +382,27 @@ class _Reader(MelScript):
                 and _copy(source_node, source_attr, target_node, target_attr)
             ):
                 continue
-            else:
+            elif not self.keyed(source_ref, source_attr, target_node, target_attr, drivers):
                 drivers.unevaluated.append(f"{target.text} (from {source.text})")
+        if self.rest_frame is not None:
+            issues = rest_frame_issues(self.source, self.rest_frame, drivers.curves, len(drivers.curves))
+            if issues:
+                raise QuadpipeError(issues)
         return drivers
+
+    def keyed(self, curve_ref: str, plug: str, node: _Node, attr: str, drivers: _Drivers) -> bool:
+        """With a rest frame, set an attribute driven by an animation curve to its key there
+        (`quadpipe.importers.maya_curves`); False when it is not such a plug."""
+        curve = self.curves.get(curve_ref)
+        key, index = ATTRIBUTES[attr]
+        if self.rest_frame is None or curve is None or plug not in OUTPUT_PLUGS or index is None:
+            return False
+        drivers.curves.append(curve)
+        value = curve.keys.get(float(self.rest_frame))
+        if value is not None:
+            scale = self.radians_per_unit if key in ANGULAR_ATTRIBUTES else 1.0
+            node.values[key] = [value * scale if i == index else v for i, v in enumerate(node.vector(key))]
+        return True
 
     def skeleton(self, name: str) -> RawSkeleton:
         self.link_inverse_scales()
@@ -416,6 +425,7 @@ class _Reader(MelScript):
                     position=tuple(float(v) * self.unit_factor for v in world[3, :3]),  # type: ignore[arg-type]
                     axis=tuple(float(v) / norm for v in z_axis) if norm > 1e-12 else None,  # type: ignore[arg-type]
                     line=joint.line,
+                    frame=joint_frame(world),
                 )
             )
         if not records:
@@ -459,6 +469,7 @@ class _Drivers:
     constrained: dict[int, _Node] = field(default_factory=dict)
     targets: dict[int, dict[int, _Node]] = field(default_factory=dict)
     unevaluated: list[str] = field(default_factory=list)
+    curves: list[AnimCurve] = field(default_factory=list)
     worlds: dict[int, np.ndarray] = field(default_factory=dict)
     evaluating: set[int] = field(default_factory=set)
 
@@ -544,16 +555,19 @@ def local_matrix(node: _Node) -> np.ndarray:
     )
 
 
-def read_skeleton(path: str | Path) -> RawSkeleton:
-    """Read the joints of a Maya ASCII file, with world positions and main axes.
+def read_skeleton(path: str | Path, *, rest_frame: int | None = None) -> RawSkeleton:
+    """Read the joints of a Maya ASCII file, with world positions and main axes, posed at frame
+    `rest_frame` of its animation curves if given (`quadpipe.importers.maya_curves`).
 
     Raises:
         QuadpipeError: not a Maya ASCII file, a cut-off file, an unterminated string, a bad
-            number or value, an unknown or ambiguous parent, an unknown unit.
+            number or value, an unknown or ambiguous parent, an unknown unit; for a rest
+            frame, no curve driving a joint or curves without a key there.
     """
     path = Path(path)
     text = read_text(path, limits.MAX_SKELETON_FILE_BYTES)
     reader = _Reader(str(path), text)
+    reader.rest_frame = rest_frame
     if not text.startswith(MAYA_HEADER):
         reader.fail(
             Token("", False, 1, 1),

@@ -6,6 +6,23 @@ import math
 
 import numpy as np
 
+from quadpipe.anatomy.skeleton import Frame
+
+MIN_SCALE = 1e-12
+"""A world matrix scaling some direction by less than this has no orientation."""
+
+
+def joint_frame(world: np.ndarray) -> Frame | None:
+    """A joint's local X, Y and Z axes in the world (unit vectors) from its world matrix (row
+    vectors: row i is where local axis i goes), scale and shear taken out (the nearest
+    rotation); None for a degenerate or mirrored matrix."""
+    u, scales, vt = np.linalg.svd(world[:3, :3])
+    rotation = u @ vt
+    if scales.min() < MIN_SCALE or np.linalg.det(rotation) < 0:
+        return None
+    x, y, z = (tuple(float(v) for v in row) for row in rotation)
+    return (x[0], x[1], x[2]), (y[0], y[1], y[2]), (z[0], z[1], z[2])
+
 
 def axis_rotation(axis: str, angle: float) -> np.ndarray:
     """Maya's 4x4 rotation about one axis, for row vectors (`p' = p * M`)."""
