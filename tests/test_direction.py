@@ -223,6 +223,27 @@ def test_render_draws_the_path_of_a_direction_it_plays(tmp_path: Path) -> None:
     assert (blue > PATH_BLUE).sum() > 20, "the path is drawn"
 
 
+PREVIEW_S = 2.0
+"""Seconds the live preview runs a direction that stands: the dog would walk 3 HP without it."""
+
+STANDS_HP = 0.2
+"""Standing, the pelvis moves less than this, pelvis heights."""
+
+
+def test_the_live_preview_plays_a_direction_file(tmp_path: Path) -> None:
+    from quadpipe.animals import sizing
+    from quadpipe.preview import LivePreview
+
+    path = write_direction(tmp_path, "dog", {"path": {"points": [[0, 0, 0], ["3 HP", 0, 0]]}, "beats": ["stop"]})
+    preview = LivePreview("dog", "direct", direction=path)
+    pelvis = next(k for k in range(preview.model.nbody) if preview.model.body(k).name.endswith("pelvis"))
+    start = preview.data.xpos[pelvis].copy()
+    for _ in range(round(PREVIEW_S * sizing.FRAME_RATE)):
+        preview.advance(1.0 / sizing.FRAME_RATE)
+    hp = preview.world.hp
+    assert np.linalg.norm(preview.data.xpos[pelvis][:2] - start[:2]) / hp < STANDS_HP, "it stands, as directed"
+
+
 def test_a_direction_for_an_animal_the_scene_lacks_is_located(tmp_path: Path, cli) -> None:
     path = write_direction(tmp_path, "cat", {"path": {"points": [[0, 0, 0], ["1 HP", 0, 0]]}, "beats": ["stop"]})
     result = cli(
