@@ -61,7 +61,9 @@ class BeatFigures:
             short of it), mean over its settled frames, HP.
         asked_turn_deg, turned_deg: a turn: the angle asked for, and how far the trunk
             (pelvis to thorax) turned from its start to its end, degrees counter-clockwise.
-        drift_hp: a turn: how far from its mark the pelvis is at its end, HP.
+        drift_hp: a turn: how far the pelvis wanders during it, HP: the furthest it gets
+            from both its mark and where it stood as the turn began (an animal that stopped
+            off its mark may step onto it as it turns).
     """
 
     kind: str
@@ -199,7 +201,7 @@ class _Measure:
             segment.end,
             asked_turn_deg=math.degrees(segment.turn),
             turned_deg=float(np.degrees(yaw[-1] - yaw[0])),
-            drift_hp=float(np.linalg.norm(self.pelvis[end] - mark) / self.hp),
+            drift_hp=_wander(self.pelvis[start : end + 1], mark) / self.hp,
         )
 
     @property
@@ -273,7 +275,7 @@ def format_direction(report: DirectionReport) -> str:
             f"{_figure(b.lateral_rms_hp, 3):>11}  {_figure(b.feet_down):>9}  {_figure(b.still_speed_hp, 3):>11}  "
             f"{_figure(b.stand_error_hp):>13}"
             + (
-                f"  turned {b.turned_deg:.0f} of {b.asked_turn_deg:.0f} deg, {b.drift_hp:.2f} HP from its mark"
+                f"  turned {b.turned_deg:.0f} of {b.asked_turn_deg:.0f} deg, wandered {b.drift_hp:.2f} HP"
                 if b.turned_deg is not None and b.asked_turn_deg is not None and b.drift_hp is not None
                 else ""
             )
@@ -284,3 +286,11 @@ def format_direction(report: DirectionReport) -> str:
 def _figure(value: float | None, digits: int = 2) -> str:
     """A number with `digits` decimals, or `-` when not measured."""
     return "-" if value is None else f"{value:.{digits}f}"
+
+
+def _wander(pelvis: np.ndarray, mark: np.ndarray) -> float:
+    """How far a pelvis path (n, 2) wanders from both a mark and its own start: the largest,
+    over its frames, of the nearer of the two distances (metres)."""
+    from_mark = np.linalg.norm(pelvis - mark, axis=1)
+    from_start = np.linalg.norm(pelvis - pelvis[0], axis=1)
+    return float(np.minimum(from_mark, from_start).max())

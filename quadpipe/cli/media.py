@@ -12,6 +12,7 @@ import typer
 from quadpipe.cli.options import (
     AnimalOpt,
     ControllerOpt,
+    DirectionOpt,
     FormatOpt,
     LimitsOpt,
     Look,
@@ -53,6 +54,7 @@ def render(
     scene: SceneOpt = "flat",
     seconds: SecondsOpt = 5.0,
     parameters: SetOpt = None,
+    direction: DirectionOpt = None,
     width: Annotated[int, typer.Option(help="Frame width in pixels.")] = 640,
     height: Annotated[int, typer.Option(help="Frame height in pixels.")] = 480,
     overlays: Annotated[
@@ -70,7 +72,10 @@ def render(
 ) -> None:
     """Render a clip headless (MuJoCo's renderer) to MP4, GIF, or a PNG contact sheet.
 
-    Example: quadpipe render run.npz -o run.mp4 -o sheet.png --view side   |   quadpipe render --controller spine_walk --scene hill -o walk.mp4
+    Example: quadpipe render run.npz -o run.mp4 -o sheet.png --view side   |   quadpipe render --controller spine_walk --scene hill -o walk.mp4   |   quadpipe render --controller direct --direction shot.yaml -s 12 -o shot.mp4
+
+    Without a clip, the animal is simulated first (`--direction` plays a direction file, and
+    the `path` overlay draws it); a clip carries the direction it was baked with.
     """
     from quadpipe.core.atomic import check_writable, transaction
     from quadpipe.core.outputs import check_distinct
@@ -100,6 +105,7 @@ def render(
             scene=scene,
             parameters=parse_parameters(parameters),
             places=parameter_places(parameters),
+            direction=direction,
             variation=varied,
         ).clip
     names = [] if overlays == "none" else [name.strip() for name in overlays.split(",") if name.strip()]

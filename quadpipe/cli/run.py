@@ -305,6 +305,7 @@ def preview(
     controller: ControllerOpt = "spine_walk",
     scene: SceneOpt = "flat",
     parameters: SetOpt = None,
+    direction: DirectionOpt = None,
     limits: LimitsOpt = None,
     roles: RolesOpt = None,
     mass: MassOpt = None,
@@ -327,7 +328,9 @@ def preview(
         from quadpipe.preview import LivePreview
 
         source = animal_source(animal, limits, roles, mass)
-        model = LivePreview(source, controller, scene, parse_parameters(parameters), parameter_places(parameters))
+        model = LivePreview(
+            source, controller, scene, parse_parameters(parameters), parameter_places(parameters), direction=direction
+        )
         title = f"quadpipe preview: {animal} / {controller} / {scene}"
     check_display()
     open_window(model, title)

@@ -229,6 +229,7 @@ GROUPS: tuple[CodeGroup, ...] = (
             "direction-too-soon": "a direction's move asked to arrive no later than it starts",
             "direction-bad-curve": "a direction's path `file` that holds no usable curve (no OBJ polyline or USD BasisCurves, too few or too many points)",
             "direction-bad-leader": "a direction's `follow` naming an animal without a path and beats of its own",
+            "direction-tight-bend": "(warning) a direction's path bending tighter than its animal can follow at the speed asked there (it cuts the bend)",
         },
     ),
     CodeGroup(

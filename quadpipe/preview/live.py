@@ -130,9 +130,11 @@ class LivePreview(Preview):
         parameters: controller parameter overrides (values as written in YAML).
         places: where each of `parameters` was given (`--set ...`), for messages.
         pool_size: throwable bodies of each kind.
+        direction: a direction file (docs/direction.md) that replaces the scene's
+            `direction:`; watched for edits like the scene.
 
     Raises:
-        QuadpipeError: the animal, controller or scene cannot be loaded (at the start; later
+        QuadpipeError: the animal, controller, scene or direction cannot be loaded (at the start; later
             edits never raise, they set `error`).
     """
 
@@ -146,6 +148,7 @@ class LivePreview(Preview):
         parameters: Mapping[str, str] | None = None,
         places: Mapping[str, Location] | None = None,
         pool_size: int = POOL_SIZE,
+        direction: str | Path | None = None,
     ):
         from quadpipe.animals.library import load_animal
         from quadpipe.animals.model import build_animal
@@ -161,12 +164,13 @@ class LivePreview(Preview):
         self.pool_size = pool_size
         self.built = build_animal(load_animal(animal))
         self.scene_path = configs.find_config(SCENE_KIND, scene or DEFAULT_SCENE)
+        self.direction_path = Path(direction) if direction is not None else None
         self.world = self._build_world(self._load_scene())
         compiled, sources = self._compile(self.world)
         self.world.sim.use_controller(compiled)
         super().__init__(Clock(self.model.opt.timestep, self._steps_per_frame(self.model)))
         self.controller_files = FileWatcher(sources)
-        self.scene_file = FileWatcher([self.scene_path])
+        self.scene_file = FileWatcher([self.scene_path, *([self.direction_path] if self.direction_path else [])])
         self.scenery_version = 0
         self.scenery, self._body_ids = model_scenery(self.model, self.world.hp)
         mujoco.mj_forward(self.model, self.data)
@@ -179,11 +183,14 @@ class LivePreview(Preview):
         return load_scene(self.scene_path)
 
     def _build_world(self, scene: SceneSpec) -> _World:
-        """The scene built for the animal, a throw pool added, compiled into a simulation (no controller yet)."""
+        """The scene built for the animal (playing the direction file, if one was given), a
+        throw pool added, compiled into a simulation (no controller yet)."""
         from quadpipe.sim.simulation import Simulation
         from quadpipe.world import build_scene
+        from quadpipe.world.direction import load_direction
 
-        setup = build_scene(scene, self.built)
+        direction = load_direction(self.direction_path) if self.direction_path is not None else None
+        setup = build_scene(scene, self.built, direction)
         first = setup.placements[0].built.animal
         names = add_throw_pool(setup.spec, first.pelvis_height, first.mass_kg, self.pool_size)
         sim = Simulation(setup)

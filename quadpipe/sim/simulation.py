@@ -110,7 +110,8 @@ class Simulation:
         events: the scene's events (props set moving, throws), run before every physics step.
         controllers: run before every physics step, in order: the runtime, then the extra ones.
         far_m: a body farther than this from the origin has been flung away (a blow-up).
-        warnings: what the run's inputs warn of, once each (a gait the species does not use).
+        warnings: what the run's inputs warn of, once each (a gait the species does not use, a
+            directed path bending tighter than its animal can follow).
         variation: what every controller runtime it makes varies by (None: nothing).
     """
 
@@ -130,7 +131,9 @@ class Simulation:
         self.variation = variation
         if variation is not None and variation.active:
             self.metadata |= {"variation": f"{variation.amount:g}", "seed": str(variation.seed)}
-        self.warnings: list[Issue] = []
+        self.warnings: list[Issue] = list(setup.warnings)
+        if self.warnings:
+            self.metadata["warnings"] = "\n".join(issue.message for issue in self.warnings)
         self.extra_controllers = list(extra_controllers)
         self.runtime: ControllerRuntime | None = None
         self._runtimes: list[ControllerRuntime] = []

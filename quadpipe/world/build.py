@@ -13,9 +13,9 @@ import numpy as np
 
 from quadpipe.animals import sizing
 from quadpipe.animals.model import BuiltAnimal
-from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.quantities import units
-from quadpipe.world.direction import DirectionSpec, scene_timelines
+from quadpipe.world.direction import DirectionSpec, bend_warnings, scene_timelines
 from quadpipe.world.format import AnimalGrid, Ground
 from quadpipe.world.goals import check_direction_length, direction_parameters, goal_text
 from quadpipe.world.loading import SceneSpec, entry_names, is_path
@@ -45,6 +45,8 @@ class SceneSetup:
         timelines: animal name -> its direction played out in time (see `quadpipe.world.timeline`).
         directions: animal name -> the controller parameters that play its timeline
             (`quadpipe.world.goals.direction_parameters`); see `parameter_groups`.
+        warnings: what the scene warns of (a directed path bending tighter than its animal
+            can follow: `quadpipe.world.direction.bend_warnings`).
     """
 
     scene: SceneSpec
@@ -56,6 +58,7 @@ class SceneSetup:
     prop_velocities: dict[str, np.ndarray] = field(default_factory=dict)
     timelines: dict[str, Timeline] = field(default_factory=dict)
     directions: dict[str, dict[str, str]] = field(default_factory=dict)
+    warnings: list[Issue] = field(default_factory=list)
 
     def parameter_groups(self) -> list[tuple[list[Placement], dict[str, str]]]:
         """The animals that one controller runtime drives together, with the parameters the
@@ -151,7 +154,15 @@ def build_scene(
     if len(placements) == 1:
         goals |= directions.get(placements[0].name, {})
     headings = [placement.heading for placement in placements]
-    return SceneSetup(scene, spec, placements, headings, goals, throws, velocities, timelines, directions)
+    warnings = [
+        issue
+        for p in placements
+        if p.name in timelines
+        for issue in bend_warnings(
+            p.name, p.built.animal, timelines[p.name], (direction or scene).locate(("direction", p.name))
+        )
+    ]
+    return SceneSetup(scene, spec, placements, headings, goals, throws, velocities, timelines, directions, warnings)
 
 
 def _sizes(built: BuiltAnimal) -> tuple[float, float]:

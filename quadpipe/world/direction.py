@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from quadpipe.animals.library import Animal
 from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.textfiles import missing_file
 from quadpipe.core.yamlio import YamlDocument, load_yaml
@@ -23,7 +24,7 @@ from quadpipe.world.curves import CURVE_SUFFIXES, CurveError, read_curve
 from quadpipe.world.direction_format import MAX_PATH_POINTS, AnimalDirection, DirectionFile, Hold, Move, Turn
 from quadpipe.world.format import SCHEMA_VERSION
 from quadpipe.world.loading import SceneSpec, file_order, quantity_issues, validate_part
-from quadpipe.world.timeline import BeatValues, Timeline, follower_timeline, plan_direction
+from quadpipe.world.timeline import BeatValues, Timeline, follower_timeline, plan_direction, tight_bends
 from quadpipe.world.values import Values
 
 
@@ -195,3 +196,32 @@ def _look(path: tuple[Any, ...], values: Values) -> list[float] | None:
     """A beat's `look_at` point in metres, None when it has none."""
     point = values.get(path + ("look_at",))
     return None if point is None else [float(v) for v in point]
+
+
+def bend_warnings(name: str, animal: Animal, timeline: Timeline, where: Location) -> list[Issue]:
+    """Warnings of the bends of an animal's path tighter than it can follow at its speed
+    there (`quadpipe.world.timeline.tight_bends`), located at its direction: it cuts them."""
+    hp = animal.pelvis_height
+    issues = []
+    for bend in tight_bends(timeline, body_length(animal)):
+        x, y = bend.at / hp
+        froude = bend.speed**2 / (units.STANDARD_GRAVITY * hp)
+        issues.append(
+            Issue(
+                "direction-tight-bend",
+                f"the path of {name} bends at ({x:.1f} HP, {y:.1f} HP) with a radius of {bend.radius / hp:.2f} HP: "
+                f"at Fr {froude:.2f} a {animal.name} follows no tighter than {bend.least / hp:.2f} HP, "
+                "and cuts the bend",
+                where,
+                "give the bend more room (spread its points), slow down for it, or stop there and `turn` in place",
+                severity="warning",
+            )
+        )
+    return issues
+
+
+def body_length(animal: Animal) -> float:
+    """An animal's length, metres: from its pelvis to the tip of its head, horizontally, in
+    the rest pose."""
+    skeleton = animal.skeleton
+    return float(np.linalg.norm((skeleton["head"].end - skeleton["pelvis"].start)[:2]))

@@ -83,6 +83,13 @@ its mark), as a fraction of `STAND_RAMP_NATURAL`: the animal brakes before its m
 FORCED_GAITS = {"walk": (0.0, 0.0), "trot": (1.0, 0.0), "gallop": (1.0, 1.0)}
 """The gaits a move may ask for, as `auto_gait`'s shares: (running gait, gallop)."""
 
+TURN_RAMP_NATURAL = 0.5
+"""How long the legs take to start (and stop) stepping round a turn in place, natural times."""
+
+TURN_HANDOVER = 0.01
+"""The steering point's handover from a turn's swing to the path after it, as a fraction of
+the turn's time (see `_turns_text`)."""
+
 POSE_RAMP_NATURAL = 3.0
 """How long sitting or lying down takes, and getting up again, natural times."""
 
@@ -102,6 +109,8 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
     - `path_look` and `path_looking`: the point a beat looks at, and 1 while one does (0
       while looking ahead), ramping like a stand;
     - `path_sit` and `path_lie`: 1 while a hold sits (lies), with ramps down and up;
+    - `path_turning` and `path_turn_rate`: 1 while a turn turns in place (0 otherwise), and
+      its rate (rad/s, counter-clockwise), each ramping over `TURN_RAMP_NATURAL`;
     - `path_auto`: 1 while the gait follows the speed, 0 while a move asks for one;
       `path_run` and `path_gallop`: the running gait's and the gallop's shares it asks for
       (see `FORCED_GAITS`), each ramping over the same time as a stand.
@@ -121,6 +130,7 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
         "path_stand": _stand_text(timeline.stands(), ramp),
         **_look_texts(timeline.segments, ramp),
         **_pose_texts(timeline.segments, POSE_RAMP_NATURAL * natural_time),
+        **_turn_texts(timeline.segments, TURN_RAMP_NATURAL * natural_time),
         **{
             name: _ramps_text([(when, share[k]) for when, share in shares] or [(0.0, float(k == 0))], ramp)
             for k, name in enumerate(("path_auto", "path_run", "path_gallop"))
@@ -152,12 +162,14 @@ def timed_points_text(timeline: Timeline, ahead: float) -> str:
     """The point `ahead` metres along the path from the reference, in time, as text: a
     corner wherever it passes a point of the polyline, reaches a turn's mark or the
     reference speed changes. Until a turn is done, the point goes on straight past the
-    turn's mark (the animal does not cut across to the path after the turn)."""
+    turn's mark (the animal does not cut across to the path after the turn); it moves to the
+    path after the turn over the turn's handover (`_handover`), as `_turns_text` hands over
+    to it."""
     lengths = timeline.lengths
     turns = [seg for seg in timeline.segments if seg.kind == "turn"]
     marks = np.concatenate([lengths, [seg.s0 for seg in turns]]) - ahead
     knots = timeline.knots()
-    times = {timeline.end}
+    times = {timeline.end} | {seg.end + _handover(seg) for seg in turns}
     for (t0, s0), (t1, s1) in zip(knots, knots[1:]):
         times.add(t0)
         if s1 > s0:
@@ -171,7 +183,7 @@ def _ahead_point(timeline: Timeline, turns: Sequence[Segment], when: float, ahea
     """The point `ahead` metres along the path from the reference at time `when`, [x, y, 0]
     metres: straight on past the mark of a turn not yet done (see `timed_points_text`)."""
     distance = float(timeline.distance_at(np.array([when]))[0])
-    turn = next((seg for seg in turns if when < seg.end and distance + ahead > seg.s0 >= distance), None)
+    turn = next((seg for seg in turns if when <= seg.end and distance + ahead > seg.s0 >= distance), None)
     if turn is None:
         x, y = timeline.point_at(np.array([distance + ahead]))[0]
     else:
@@ -181,11 +193,14 @@ def _ahead_point(timeline: Timeline, turns: Sequence[Segment], when: float, ahea
 
 def _turns_text(timeline: Timeline, ahead: float) -> str:
     """What turns add to the steering point: during each turn, the point `ahead` metres
-    from the turn's mark swings from straight on to the turn's angle, at a steady rate."""
+    from the turn's mark swings from straight on to the turn's angle, at a steady rate; after
+    it, this hands over to `timed_points_text`'s point on the path over the turn's handover
+    (the two change by opposite amounts, so that their sum stays at the turn's angle)."""
     terms = []
     for seg in (seg for seg in timeline.segments if seg.kind == "turn"):
         straight = timeline.heading_at(seg.s0)
         t0, t1 = (number_text(when, DIRECTION_DIGITS) for when in (seg.start, seg.end))
+        handover = number_text(_handover(seg), DIRECTION_DIGITS)
         angle = (
             f"({number_text(math.atan2(straight[1], straight[0]), DIRECTION_DIGITS)} rad + "
             f"{number_text(seg.turn, DIRECTION_DIGITS)} rad * clamp(({TIME_VARIABLE} - {t0} s) / "
@@ -193,11 +208,17 @@ def _turns_text(timeline: Timeline, ahead: float) -> str:
         )
         length = f"{number_text(ahead, DIRECTION_DIGITS)} m"
         terms.append(
-            f"(step({t0} s, {TIME_VARIABLE}) - step({t1} s, {TIME_VARIABLE})) * "
+            f"(step({t0} s, {TIME_VARIABLE}) - clamp(({TIME_VARIABLE} - {t1} s) / ({handover} s), 0, 1)) * "
             f"([{length} * cos({angle}), {length} * sin({angle}), 0 m] - "
             f"{vector_text(np.array([*(ahead * straight), 0.0]), DIRECTION_DIGITS)})"
         )
     return balanced_sum(terms)
+
+
+def _handover(turn: Segment) -> float:
+    """How long the steering point takes to hand over from a turn's swing to the path after
+    it, seconds (`TURN_HANDOVER` of the turn's time)."""
+    return TURN_HANDOVER * (turn.end - turn.start)
 
 
 def _tangent_text(timeline: Timeline) -> str:
@@ -251,14 +272,15 @@ def _stand_text(stands: Sequence[tuple[float, float]], ramp: float) -> str:
     return balanced_sum(terms)
 
 
-def _ramps_text(values: Sequence[tuple[float, float]], ramp: float) -> str:
+def _ramps_text(values: Sequence[tuple[float, float]], ramp: float, unit: str = "") -> str:
     """A value that changes at given times, as text: `values[0]`, then a smooth ramp of `ramp`
-    seconds to each next value from its time."""
-    terms = [number_text(values[0][1], DIRECTION_DIGITS)]
+    seconds to each next value from its time (numbers in `unit`, none by default)."""
+    unit = f" {unit}" if unit else ""
+    terms = [number_text(values[0][1], DIRECTION_DIGITS) + unit]
     for (_, before), (when, after) in zip(values, values[1:]):
         if after != before:
             terms.append(
-                f"{number_text(after - before, DIRECTION_DIGITS)} * smoothstep({number_text(when, DIRECTION_DIGITS)} s, {number_text(when + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+                f"{number_text(after - before, DIRECTION_DIGITS)}{unit} * smoothstep({number_text(when, DIRECTION_DIGITS)} s, {number_text(when + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
             )
     return balanced_sum(terms)
 
@@ -291,6 +313,18 @@ def _pose_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:
             ]
         texts[f"path_{pose}"] = balanced_sum(terms)
     return texts
+
+
+def _turn_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:
+    """`path_turning` (1 during each turn) and `path_turn_rate` (its steady rate, its angle
+    over its time, rad/s), from the turn's start to its end, ramping in and out over `ramp`
+    seconds from those times."""
+    turns = [seg for seg in segments if seg.kind == "turn"]
+    turning, rates = [(0.0, 0.0)], [(0.0, 0.0)]
+    for seg in turns:
+        turning += [(seg.start, 1.0), (seg.end, 0.0)]
+        rates += [(seg.start, seg.turn / (seg.end - seg.start)), (seg.end, 0.0)]
+    return {"path_turning": _ramps_text(turning, ramp), "path_turn_rate": _ramps_text(rates, ramp, "rad/s")}
 
 
 def _plain_vector(vector: np.ndarray) -> str:

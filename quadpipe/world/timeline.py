@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from quadpipe.core.errors import Issue, Location
+from quadpipe.quantities.units import STANDARD_GRAVITY
 
 DIRECTION_KEY = "direction"
 """The clip metadata key holding the directed animals' timelines (`timelines_json`)."""
@@ -246,6 +247,92 @@ def _bad_point(beat: BeatValues, at_point: int, count: int, where: Location) -> 
     else:
         message = f"the animal is at point {at_point} here: a move goes forward along the path, to a later point"
     return Issue("direction-bad-point", message, where, f"use a point from {at_point + 1} to {count - 1}")
+
+
+WALK_BEND_BODY_LENGTHS = 0.5
+"""The tightest bend an animal follows at a walk, as a radius in body lengths (pelvis to the
+tip of the head, in the rest pose): the dog and the horse (1.5 HP long) walk the
+figure-eight's bends (0.77 HP radius, 1.0 HP as `tight_bends` measures it on the path's
+polyline) within 0.3 HP of the path."""
+
+LATERAL_GRIP = 0.3
+"""The sideways acceleration an animal turns with at speed, in g: a bend's radius is at
+least speed² / (LATERAL_GRIP g), i.e. Fr / 0.3 pelvis heights (2 HP at a trot, Fr 0.6;
+8 HP at a gallop, Fr 2.5)."""
+
+
+@dataclass(frozen=True)
+class Bend:
+    """A bend of a path tighter than the animal can follow at its speed there.
+
+    Attributes:
+        at: where it is, [x, y] metres.
+        radius: the path's radius there, metres.
+        least: the tightest radius the animal follows at that speed, metres.
+        speed: the asked speed there, m/s.
+    """
+
+    at: np.ndarray
+    radius: float
+    least: float
+    speed: float
+
+
+def least_radius(speed: float, body_length: float) -> float:
+    """The tightest bend, in metres, an animal `body_length` metres long follows at `speed`
+    (m/s): a body length at a walk (`WALK_BEND_BODY_LENGTHS`), more as the sideways grip it
+    needs grows with the speed (`LATERAL_GRIP`)."""
+    return max(WALK_BEND_BODY_LENGTHS * body_length, speed**2 / (LATERAL_GRIP * STANDARD_GRAVITY))
+
+
+def tight_bends(timeline: Timeline, body_length: float) -> list[Bend]:
+    """The bends of a timeline's path, where the animal moves through them, tighter than it
+    can follow (`least_radius`): the tightest of each run of such corners of the polyline.
+
+    A corner's radius is that of the arc turning through its angle over the mean of its two
+    pieces: a smooth path's curvature, and for a straight-sided path the roundest cut an
+    animal could make through its corner. A corner the animal reaches standing (a move's end
+    followed by a hold, a stop or a turn) is not a bend it follows.
+    """
+    tight: list[Bend] = []
+    run: list[Bend] = []
+    for k in range(1, len(timeline.points) - 1):
+        bend = _tight_corner(timeline, k, body_length)
+        if bend is not None:
+            run.append(bend)
+        if run and (bend is None or k == len(timeline.points) - 2):
+            tight.append(min(run, key=lambda item: item.radius))
+            run = []
+    return tight
+
+
+def _tight_corner(timeline: Timeline, k: int, body_length: float) -> Bend | None:
+    """Corner `k` of a timeline's polyline as a `Bend`, if the animal moves through it and
+    it is tighter than it can follow (see `tight_bends`); None otherwise."""
+    points = timeline.points
+    speed = _speed_through(timeline.segments, float(timeline.lengths[k]))
+    before, after = points[k] - points[k - 1], points[k + 1] - points[k]
+    angle = abs(math.atan2(float(before[0] * after[1] - before[1] * after[0]), float(np.dot(before, after))))
+    if speed <= 0 or angle < 1e-9:
+        return None
+    radius = 0.5 * float(np.linalg.norm(before) + np.linalg.norm(after)) / angle
+    least = least_radius(speed, body_length)
+    return Bend(points[k].copy(), radius, least, speed) if radius < least else None
+
+
+def _speed_through(segments: Sequence[Segment], distance: float) -> float:
+    """The asked speed of a move passing `distance` along the path (the faster of two moves
+    that meet there), 0 where no move passes it."""
+    speeds = [
+        seg.speed
+        for k, seg in enumerate(segments)
+        if seg.kind == "move"
+        and (
+            seg.s0 < distance < seg.s1
+            or (distance == seg.s1 and k + 1 < len(segments) and segments[k + 1].kind == "move")
+        )
+    ]
+    return max(speeds, default=0.0)
 
 
 def follower_timeline(leader: Timeline, behind: float, aside: float) -> Timeline:
