@@ -39,7 +39,7 @@ from quadpipe.analysis import (
     phase_distance,
     toe_tips,
 )
-from quadpipe.analysis.footfalls import _runs
+from quadpipe.analysis.footfalls import runs
 from quadpipe.anatomy.roles import LEGS, PARENT, ROLES, TOE_BONES
 from quadpipe.animals.sizing import GRAVITY, natural_time
 from quadpipe.clip.model import AnimalTrack, Clip
@@ -289,13 +289,13 @@ def test_a_bounds_short_stance_is_a_footfall_not_a_flicker():
     stance = round(0.18 * natural_time(HP_M) * fps)  # a horse's hind foot at a bound: 0.18 natural time
     raw = np.array(([False] * 40 + [True] * stance) * 5 + [False] * 40)
     cleaned = clean_contacts(raw, min_run_frames(fps, HP_M))
-    assert len(_runs(cleaned, True)) == 5
+    assert len(runs(cleaned, True)) == 5
 
 
 def test_a_first_touch_before_a_hop_starts_the_stance():
     raw = np.array([0] * 10 + [1, 1] + [0, 0] + [1] * 10 + [0] * 10 + [1] * 14 + [0] * 10, dtype=bool)
     cleaned = clean_contacts(raw, 2)
-    assert _runs(cleaned, True)[:2] == [(10, 24), (34, 48)]
+    assert runs(cleaned, True)[:2] == [(10, 24), (34, 48)]
 
 
 # --- Slip ---------------------------------------------------------------------------------------

@@ -18,18 +18,23 @@ What `quadpipe analyze run.npz` reports, per animal of the clip:
 - **Controller effort**, when the clip carries it (see `controller_force_key`).
 - The **gait** named by Hildebrand's rules (see `classify_gait` and docs/analysis.md), and
   Alexander's check of relative stride length against `2.3 Fr^0.3`.
+- The **posture** (`posture_report`), against the animal's own standing pose: each leg joint's
+  flexion in stance, the trunk's height, roll and yaw, the head's and the tail's carriage, and
+  how far the feet slip, drag and sink.
 
 Everything is in quadpipe's frame (metres, +X forward, +Y left, +Z up); lengths are also given
 in pelvis heights (HP), the animal's own unit.
 
 The modules: `report` (the figures, as data and JSON), `footfalls` (contacts cleaned into
 footfalls, toe tips), `gait` (`analyze_clip`: stride, duty factors, phases, the gait's name),
-`effort` (the controller's forces), `text` (`format_report`) and `diagram` (the footfall
-diagram as PNG).
+`effort` (the controller's forces), `text` (`format_report`), `diagram` (the footfall
+diagram as PNG), `posture` (the posture figures as data), `carriage` (`posture_report`: measures
+them) and `ground` (the terrain's height, the lowest point of a bone's shapes).
 """
 
 from __future__ import annotations
 
+from quadpipe.analysis.carriage import SETTLE_NATURAL_TIMES, posture_report
 from quadpipe.analysis.diagram import (
     BAR_COLOUR,
     DIAGRAM_STRIDES,
@@ -56,6 +61,14 @@ from quadpipe.analysis.footfalls import (
     toe_tips,
 )
 from quadpipe.analysis.gait import REFERENCE_LEG, analyze_clip, circular_mean, classify_gait, phase_distance
+from quadpipe.analysis.posture import (
+    AnimalPosture,
+    HeadTailPosture,
+    JointFlexion,
+    LegPosture,
+    PostureReport,
+    TrunkPosture,
+)
 from quadpipe.analysis.report import (
     ALEXANDER_COEFFICIENT,
     ALEXANDER_EXPONENT,
@@ -67,7 +80,7 @@ from quadpipe.analysis.report import (
     GaitReport,
     LegGait,
 )
-from quadpipe.analysis.text import format_report
+from quadpipe.analysis.text import format_posture, format_report
 
 __all__ = [
     "ALEXANDER_COEFFICIENT",
@@ -79,14 +92,21 @@ __all__ = [
     "HILDEBRAND_ORDER",
     "PANEL_HEIGHT_PX",
     "REFERENCE_LEG",
+    "SETTLE_NATURAL_TIMES",
     "ROW_GAP_PX",
     "AnimalGait",
+    "AnimalPosture",
     "ControllerEffort",
     "DiagramPanel",
     "Footfall",
     "Gait",
     "GaitReport",
+    "HeadTailPosture",
+    "JointFlexion",
     "LegGait",
+    "LegPosture",
+    "PostureReport",
+    "TrunkPosture",
     "analyze_clip",
     "check_diagram_path",
     "circular_mean",
@@ -101,10 +121,12 @@ __all__ = [
     "drop_scuffs",
     "fill_bounces",
     "footfall_diagram_png",
+    "format_posture",
     "format_report",
     "frame_rate_note",
     "min_run_frames",
     "phase_distance",
+    "posture_report",
     "rotate",
     "toe_tips",
 ]

@@ -72,7 +72,7 @@ def debounce(contact: np.ndarray, min_frames: int) -> np.ndarray:
     """
     cleaned = np.asarray(contact, dtype=bool).copy()
     for value in (False, True):
-        for start, stop in _runs(cleaned, value):
+        for start, stop in runs(cleaned, value):
             if stop - start < min_frames:
                 cleaned[start:stop] = not value
     return cleaned
@@ -104,17 +104,17 @@ def _drop_short_runs(contact: np.ndarray, value: bool, fraction: float) -> np.nd
     clip's first and last frames may cut a swing short).
     """
     cleaned = np.asarray(contact, dtype=bool).copy()
-    runs = [(start, stop) for start, stop in _runs(cleaned, value) if value or (start > 0 and stop < len(cleaned))]
-    if not runs:
+    inner = [(start, stop) for start, stop in runs(cleaned, value) if value or (start > 0 and stop < len(cleaned))]
+    if not inner:
         return cleaned
-    typical = float(np.percentile([stop - start for start, stop in runs], TYPICAL_STANCE_PERCENTILE))
-    for start, stop in runs:
+    typical = float(np.percentile([stop - start for start, stop in inner], TYPICAL_STANCE_PERCENTILE))
+    for start, stop in inner:
         if stop - start < fraction * typical:
             cleaned[start:stop] = not value
     return cleaned
 
 
-def _runs(mask: np.ndarray, value: bool) -> list[tuple[int, int]]:
+def runs(mask: np.ndarray, value: bool) -> list[tuple[int, int]]:
     """(start, stop) frames of every maximal run of `value` in a boolean array."""
     padded = np.concatenate([[False], np.asarray(mask) == value, [False]]).astype(np.int8)
     edges = np.flatnonzero(np.diff(padded))
@@ -125,7 +125,7 @@ def footfalls_of(contact: np.ndarray, tip: np.ndarray) -> tuple[Footfall, ...]:
     """One foot's stances from its cleaned (F,) contacts, with the slip of its (F, 3) toe tip."""
     frames = len(contact)
     result = []
-    for start, stop in _runs(contact, True):
+    for start, stop in runs(contact, True):
         touchdown = start if start > 0 else None
         liftoff = stop if stop < frames else None
         slip = None

@@ -10,6 +10,8 @@ import json
 from dataclasses import dataclass, field
 from typing import Any
 
+from quadpipe.analysis.posture import PostureReport
+
 HILDEBRAND_ORDER: tuple[str, ...] = ("lh", "lf", "rf", "rh")
 """Leg order of footfall diagrams and reports, top to bottom, as Hildebrand draws them."""
 
@@ -220,19 +222,23 @@ def _leg_dict(leg: LegGait, fps: float, hp: float) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class GaitReport:
-    """The gait analysis of a clip: one `AnimalGait` per analysed animal."""
+    """The gait analysis of a clip: one `AnimalGait` per analysed animal, and their posture when measured."""
 
     fps: float
     frame_count: int
     animals: tuple[AnimalGait, ...] = field(default_factory=tuple)
+    posture: PostureReport | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready report."""
+        """JSON-ready report (each animal's `posture` too, when measured)."""
+        animals = {animal.name: animal.to_dict() for animal in self.animals}
+        for posture in self.posture.animals if self.posture is not None else ():
+            animals[posture.name]["posture"] = posture.to_dict()
         return {
             "fps": self.fps,
             "frames": self.frame_count,
             "duration_s": max(0, self.frame_count - 1) / self.fps,
-            "animals": {animal.name: animal.to_dict() for animal in self.animals},
+            "animals": animals,
         }
 
     def to_json(self) -> str:

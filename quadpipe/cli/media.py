@@ -7,7 +7,16 @@ from typing import Annotated
 
 import typer
 
-from quadpipe.cli.options import AnimalOpt, ControllerOpt, SceneOpt, SecondsOpt, SetOpt, parse_parameters
+from quadpipe.cli.options import (
+    AnimalOpt,
+    ControllerOpt,
+    FormatOpt,
+    OutputFormat,
+    SceneOpt,
+    SecondsOpt,
+    SetOpt,
+    parse_parameters,
+)
 from quadpipe.cli.output import write_gait_files
 
 
@@ -63,12 +72,25 @@ def analyze(
         Path | None, typer.Option("--diagram", help="Draw a footfall (Hildebrand) diagram (.png).")
     ] = None,
     animal: Annotated[str | None, typer.Option("--animal", "-a", help="Analyse only this animal of the clip.")] = None,
+    settle: Annotated[
+        float | None,
+        typer.Option(
+            "--settle",
+            min=0.0,
+            help="Natural times sqrt(HP/g) at the start left out of the posture figures"
+            " (default 4; at most half the clip).",
+        ),
+    ] = None,
+    fmt: FormatOpt = OutputFormat.text,
 ) -> None:
-    """Gait analysis of a clip: footfalls, duty factors, phases, stride, speed, Froude number, gait name.
+    """Gait and posture analysis of a clip: footfalls, duty factors, phases, stride, speed, Froude
+    number, gait name; joint flexion in stance, trunk, head and tail carriage, foot slip.
 
     Example: quadpipe analyze run.npz -o report.json --diagram footfalls.png
     """
-    from quadpipe.analysis import analyze_clip, check_diagram_path, format_report
+    import dataclasses
+
+    from quadpipe.analysis import analyze_clip, check_diagram_path, format_report, posture_report
     from quadpipe.core.outputs import check_distinct, check_suffix
     from quadpipe.exporters.npz import load_clip
 
@@ -78,6 +100,9 @@ def analyze(
         check_suffix("-o", output, (".json",), "the JSON report")
     if diagram is not None:
         check_diagram_path(diagram)
-    report = analyze_clip(load_clip(clip), animal)
-    typer.echo(format_report(report))
+    baked = load_clip(clip)
+    report = dataclasses.replace(
+        analyze_clip(baked, animal), posture=posture_report(baked, animal, *(() if settle is None else (settle,)))
+    )
+    typer.echo(report.to_json().rstrip("\n") if fmt == OutputFormat.json else format_report(report))
     write_gait_files(report, output, diagram)
