@@ -30,6 +30,8 @@ from quadpipe.analysis import (
     phase_distance,
     rotate,
 )
+from quadpipe.analysis.carriage import posture_report
+from quadpipe.analysis.posture import AnimalPosture
 from quadpipe.anatomy import roles
 from quadpipe.animals.sizing import GRAVITY, natural_time
 from quadpipe.clip.model import Clip
@@ -109,12 +111,15 @@ class Measured:
     gait: AnimalGait
     froude: float
     metrics: dict
+    posture: AnimalPosture
 
     @classmethod
     def of(cls, recorder: NaturalTimeRecorder, result) -> Measured:
-        """The gait a recorder captured during a simulation `result`."""
-        gait = analyze_clip(recorder.clip()).animals[0]
-        return cls(gait, gait.froude or 0.0, result.metrics["animals"][recorder.animal])
+        """The gait and the posture a recorder captured during a simulation `result`."""
+        clip = recorder.clip()
+        gait = analyze_clip(clip).animals[0]
+        posture = posture_report(clip, settle_natural_times=0).animals[0]
+        return cls(gait, gait.froude or 0.0, result.metrics["animals"][recorder.animal], posture)
 
 
 def measure(animal: str, controller: str, **parameters: str) -> Measured:
@@ -442,3 +447,43 @@ def test_the_walking_dog_hit_by_20_random_boxes_is_up_and_walking_within_3_s():
         )
     assert hits >= MIN_RECOVERED  # the boxes do hit it
     assert recovered >= MIN_RECOVERED
+
+
+# --------------------------------------------------------------------------- limbs that bear weight (#13)
+
+POSTURE_GAITS = ("walk", "trot")
+"""The gaits whose carriage is held to a real animal's (angles relative to each animal's standing pose)."""
+
+MAX_STANCE_CLOSING_DEG = {"elbow": 15.0, "knee": 15.0, "hock": 15.0, "carpus": 5.0}
+"""Largest stance flexion beyond the standing angle: a real dog's elbow closes 4-9 deg under
+load and its carpus extends; a leg that buckles more reads as a crouch."""
+
+MIN_PELVIS_HEIGHT_RATIO = {"walk": 0.95, "trot": 0.93}
+"""Mean pelvis height over standing (a real dog: 0.98)."""
+
+MAX_ROLL_AMPLITUDE_DEG = {"walk": 6.0, "trot": 12.0}
+"""Pelvis roll, half peak-to-peak (a real dog: range 12.6 deg at the walk, 10.9 at the trot,
+Schaub 2021; amplitude about half)."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("animal", "gait"), [(a, g) for g in POSTURE_GAITS for a in ANIMALS])
+def test_stance_legs_keep_their_standing_shape(animal, gait):
+    posture = measured_gait(animal, gait).posture
+    closing = {
+        joint: max(
+            posture.legs[leg].joints[joint].stance_max_deg or 0.0
+            for leg in roles.LEGS
+            if joint in posture.legs[leg].joints
+        )
+        for joint in MAX_STANCE_CLOSING_DEG
+    }
+    assert all(closing[joint] <= limit for joint, limit in MAX_STANCE_CLOSING_DEG.items()), closing
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("animal", "gait"), [(a, g) for g in POSTURE_GAITS for a in ANIMALS])
+def test_trunk_rides_at_its_standing_height_without_a_waddle(animal, gait):
+    trunk = measured_gait(animal, gait).posture.trunk
+    assert trunk.pelvis_height_ratio >= MIN_PELVIS_HEIGHT_RATIO[gait], trunk
+    assert trunk.roll_amplitude_deg <= MAX_ROLL_AMPLITUDE_DEG[gait], trunk
