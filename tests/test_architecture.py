@@ -20,6 +20,7 @@ LAYERS: dict[str, int] = {
     "quadpipe.core": 0,
     "quadpipe.anatomy": 1,
     "quadpipe.clip": 1,
+    "quadpipe.bodies": 1,
     "quadpipe.importers": 2,
     "quadpipe.animals": 3,
     "quadpipe.quantities": 4,

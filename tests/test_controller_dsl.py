@@ -217,7 +217,9 @@ def test_every_shipped_controller_validates_without_any_issue(in_repo: Path) -> 
     shipped = sorted(p.stem for p in SHIPPED.glob("*.yaml"))
     output, code = validate_files([str(SHIPPED)])
     assert (output, code) == (f"{len(shipped)} files checked: no problems\n", 0)
-    assert shipped == sorted(THESIS_CONTROLLERS + ("auto_gait", "bound", "locomotion", "pace", "trot", "walk"))
+    assert shipped == sorted(
+        THESIS_CONTROLLERS + ("amble", "auto_gait", "bound", "canter", "gallop", "locomotion", "pace", "trot", "walk")
+    )
 
 
 @pytest.mark.parametrize("name", THESIS_CONTROLLERS)

@@ -99,6 +99,13 @@ def written(clip, tmp_path_factory) -> dict[str, Path]:
     return {suffix: export_clip(clip, folder / f"dog{suffix}") for suffix in FORMATS}
 
 
+@pytest.fixture(scope="module")
+def bones_written(clip, tmp_path_factory) -> dict[str, Path]:
+    """The dog clip with its bones' shapes (`look="bones"`, rigidly skinned), in glTF and USD."""
+    folder = tmp_path_factory.mktemp("bones")
+    return {suffix: export_clip(clip, folder / f"dog{suffix}", look="bones") for suffix in (".glb", ".usdc")}
+
+
 # -- registry and bad input ------------------------------------------------------------------
 
 
@@ -358,8 +365,8 @@ def test_gltf_joints_follow_the_clip_on_every_frame(clip, written, suffix):
     np.testing.assert_allclose(world[:, prop, :3, 3] @ Y_UP, clip.props[0].positions, atol=tolerance(clip))
 
 
-def test_gltf_skinning_moves_each_vertex_with_its_bone(clip, written):
-    document, binary = read_gltf(written[".glb"])
+def test_gltf_skinning_moves_each_vertex_with_its_bone(clip, bones_written):
+    document, binary = read_gltf(bones_written[".glb"])
     track = clip.animals[0]
     skin = document["skins"][0]
     mesh_node = next(node for node in document["nodes"] if "skin" in node)
@@ -409,15 +416,15 @@ def test_gltf_names_joints_per_animal_when_there_are_several(tmp_path):
 
 
 @needs_node
-def test_threejs_plays_the_glb_like_the_clip(clip, written):
+def test_threejs_plays_the_glb_like_the_clip(clip, bones_written):
     track = clip.animals[0]
     frames = [0, 17, 42, clip.frame_count - 1]
-    result = run_node("three_pose.mjs", str(written[".glb"]), *(repr(float(t)) for t in clip.times()[frames]))
+    result = run_node("three_pose.mjs", str(bones_written[".glb"]), *(repr(float(t)) for t in clip.times()[frames]))
     (skin,) = result["skins"]
     assert skin["bones"] == list(track.roles)
     bones = np.array(skin["bonePositions"]) @ Y_UP
     np.testing.assert_allclose(bones, track.positions[frames], atol=tolerance(clip))
-    document, binary = read_gltf(written[".glb"])
+    document, binary = read_gltf(bones_written[".glb"])
     mesh_node = next(node for node in document["nodes"] if "skin" in node)
     attributes = document["meshes"][mesh_node["mesh"]]["primitives"][0]["attributes"]
     sampled = np.array(skin["vertices"])
@@ -513,10 +520,10 @@ def test_usd_joints_follow_the_clip_on_every_frame(clip, written, suffix):
         np.testing.assert_allclose(np.array(box)[3, :3], clip.props[0].positions[frame], atol=tolerance(clip))
 
 
-def test_usd_rigid_skinning_moves_each_mesh_with_its_bone(clip, written):
+def test_usd_rigid_skinning_moves_each_mesh_with_its_bone(clip, bones_written):
     from pxr import Usd, UsdGeom
 
-    stage = Usd.Stage.Open(str(written[".usdc"]))
+    stage = Usd.Stage.Open(str(bones_written[".usdc"]))
     query, binding = skel_query(stage, "/World/dog")
     track = clip.animals[0]
     targets = binding.GetSkinningTargets()

@@ -147,6 +147,8 @@ def replace_scalar(text: str, root: yaml.Node, rng: random.Random) -> tuple[str,
     else:
         new = rng.choice(REPLACEMENTS)
     old = text[node.start_mark.index : node.end_mark.index]
+    if new == old:  # a replacement must change the file
+        new = next(replacement for replacement in REPLACEMENTS if replacement != old)
     return _splice(text, node.start_mark.index, node.end_mark.index, new), f"{old[:30]!r} -> {new[:30]!r}"
 
 

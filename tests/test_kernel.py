@@ -19,6 +19,7 @@ import yaml
 from quadpipe.controllers.language.compiler import compile_controller
 from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.runtime.runtime import ControllerRuntime
+from quadpipe.core import configs
 from quadpipe.quantities.expressions import FUNCTIONS, HEADING_FRAME_KEY
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.sim.simulation import simulate
@@ -204,3 +205,81 @@ def test_animals_of_a_crowd_are_each_driven_as_when_alone(tmp_path: Path) -> Non
         alone = simulate(species, "spine_walk", seconds=2.0, parameters=FAR_GOAL).clip.animals[0]
         together = track.positions - track.positions[0, 0]
         np.testing.assert_allclose(together, alone.positions - alone.positions[0, 0], atol=1e-6 * track.pelvis_height)
+
+
+HEIGHT_POINTS = ("lf.top", "rh.top", "pelvis.mid", "thorax.end", "lf_fpha0.end")
+"""Where the height probe measures: high and low, front and back, a toe."""
+
+PROPS = [
+    {"name": "crate", "type": "box", "at": ["3 HP", 0, "0.3 HP"], "size": ["1 HP", "1 HP", "0.6 HP"], "mass": "1 bm"},
+    {"name": "ball", "type": "sphere", "at": ["5 HP", 0, "0.4 HP"], "size": ["0.4 HP"], "mass": "0.1 bm"},
+    {"name": "log", "type": "capsule", "at": ["7 HP", 0, "0.25 HP"], "size": ["0.25 HP", "2 HP"], "mass": "0.2 bm",
+     "euler": ["90 deg", 0, 0]},
+]  # fmt: skip
+"""Props the dog is carried over in `props.yaml`, one of each shape."""
+
+SWEEP_HP = [(x, 0.0) for x in np.arange(-2.0, 14.0, 0.37)] + [(0.0, -3.0), (9.0, -3.0)]
+"""Where the animals are carried (HP along +x, HP up or down): over every terrain feature and
+prop, and under the floor (where there is nothing below)."""
+
+
+def height_probe(folder: Path) -> Path:
+    """A controller with one unsmoothed `height` sensor per HEIGHT_POINTS entry, and nothing else."""
+    elements = [
+        {"type": "sensor", "name": f"height_{index}", "kind": "height", "at": point}
+        for index, point in enumerate(HEIGHT_POINTS)
+    ]
+    path = folder / "heights.yaml"
+    path.write_text(yaml.safe_dump({"schema": 1, "name": "heights", "elements": elements}, sort_keys=False))
+    return path
+
+
+def props_scene(folder: Path) -> Path:
+    path = folder / "props.yaml"
+    path.write_text(yaml.safe_dump({"schema": 1, "name": "props", "props": PROPS}, sort_keys=False))
+    return path
+
+
+def ray_down(model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray) -> tuple[float, int]:
+    """What a `height` sensor means: the distance down to the first world geom (the point's z
+    over nothing), and that geom (-1: none), by MuJoCo's ray cast called from Python."""
+    geom = np.zeros(1, dtype=np.int32)
+    world_only = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
+    distance = mujoco.mj_ray(model, data, point, np.array([0.0, 0.0, -1.0]), world_only, 1, -1, geom)
+    return (distance if distance >= 0 else float(point[2])), int(geom[0])
+
+
+@pytest.mark.parametrize("scene", [*configs.available("scenes"), "props"])
+def test_height_sensors_measure_the_ground_below_as_a_ray_cast_does(tmp_path: Path, scene: str) -> None:
+    """Carried over every terrain and prop, each `height` sensor reads what `mj_ray` says."""
+    built = built_animal("dog")
+    setup = build_scene(load_scene(str(props_scene(tmp_path)) if scene == "props" else scene), built)
+    model = setup.spec.compile()
+    data = mujoco.MjData(model)
+    compiled = compile_controller(
+        load_controller(str(height_probe(tmp_path))), scale_for_animals([p.built.animal for p in setup.placements])
+    )
+    runtime = ControllerRuntime(compiled, model, setup.placements)
+    roots = [model.jnt_qposadr[model.body_jntadr[model.body(f"{p.name}/pelvis").rootid]] for p in setup.placements]
+    start = data.qpos.copy()
+    hp = built.animal.pelvis_height
+    hit: set[int] = set()
+    for dx, dz in SWEEP_HP:
+        data.qpos[:] = start
+        data.qpos[roots] += dx * hp
+        data.qpos[np.add(roots, 2)] += dz * hp
+        mujoco.mj_forward(model, data)
+        runtime.apply(model, data)
+        sensors = runtime.sensor_values(data)
+        for index in range(len(HEIGHT_POINTS)):
+            at = runtime.point(data, compiled.elements[f"height_{index}"].spec.at)
+            expected, geoms = zip(*(ray_down(model, data, p) for p in at))
+            np.testing.assert_allclose(sensors[f"height_{index}"], expected, rtol=0, atol=1e-9 * hp)
+            hit.update(geoms)
+    assert -1 in hit, "some points have nothing below them"
+    terrain = [g for g in range(model.ngeom) if model.geom_bodyid[g] == 0 and model.geom_group[g] == 0]
+    if scene == "props":
+        hit_bodies = {model.body(model.geom_bodyid[g]).name for g in hit if g >= 0}
+        assert {prop["name"] for prop in PROPS} <= hit_bodies, f"the sweep passes over every prop: hit {hit_bodies}"
+    elif len(terrain) > 1:
+        assert len(hit & set(terrain)) > 1, "the sweep passes over the terrain's features, not the floor alone"

@@ -138,10 +138,13 @@ def test_gif_has_every_frame_and_is_byte_identical_when_rendered_again(short_cli
 
 @pytest.mark.parametrize("frame", [0, 5, SHORT_FRAMES - 1])
 def test_animal_pixels_lie_where_its_bones_project(short_clip, frame):
-    with render.ClipRenderer(short_clip, width=WIDTH, height=HEIGHT, overlays=[]) as renderer:
+    """The bones' shapes are drawn where the bones are (the body: tests/test_bodies.py)."""
+    with render.ClipRenderer(short_clip, width=WIDTH, height=HEIGHT, overlays=[], look="bones") as renderer:
         with_animal = renderer.render(frame)
         view = renderer.views[frame]
-    with render.ClipRenderer(_without_animal(short_clip), width=WIDTH, height=HEIGHT, overlays=[]) as renderer:
+    with render.ClipRenderer(
+        _without_animal(short_clip), width=WIDTH, height=HEIGHT, overlays=[], look="bones"
+    ) as renderer:
         without = renderer.render(frame)
     changed = _changed(with_animal, without)
     assert len(changed) > 0.01 * WIDTH * HEIGHT

@@ -11,7 +11,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from quadpipe.analysis.footfalls import clean_contacts, finite_frames, min_run_frames, rotate, runs, toe_tips
+from quadpipe.analysis.footfalls import (
+    clean_contacts,
+    finite_frames,
+    min_run_frames,
+    named_tracks,
+    rotate,
+    runs,
+    toe_tips,
+)
 from quadpipe.analysis.gait import REFERENCE_LEG
 from quadpipe.analysis.ground import ground_height, lowest_points
 from quadpipe.analysis.posture import (
@@ -25,7 +33,6 @@ from quadpipe.analysis.posture import (
 from quadpipe.anatomy import roles
 from quadpipe.animals.sizing import natural_time
 from quadpipe.clip.model import AnimalTrack, Clip
-from quadpipe.core.errors import QuadpipeError, did_you_mean
 
 SETTLE_NATURAL_TIMES = 4.0
 """Frames before this many natural times are not measured: the animal rising into its gait
@@ -71,15 +78,7 @@ def posture_report(
     Raises:
         QuadpipeError: `unknown-animal` when no animal of the clip has that name.
     """
-    tracks = clip.animals
-    if animal is not None:
-        tracks = [track for track in clip.animals if track.name == animal]
-        if not tracks:
-            raise QuadpipeError.single(
-                "unknown-animal",
-                f"the clip has no animal named {animal!r}",
-                hint=did_you_mean(animal, [t.name for t in clip.animals]),
-            )
+    tracks = named_tracks(clip, animal)
     return PostureReport(clip.fps, tuple(_animal_posture(clip, track, settle_natural_times) for track in tracks))
 
 

@@ -10,7 +10,8 @@ import numpy as np
 from quadpipe.analysis.report import Footfall
 from quadpipe.anatomy.roles import TOE_BONES
 from quadpipe.animals.sizing import natural_time
-from quadpipe.clip.model import AnimalTrack
+from quadpipe.clip.model import AnimalTrack, Clip
+from quadpipe.core.errors import QuadpipeError, did_you_mean
 
 MIN_RUN_NATURAL_TIMES = 0.1
 """A contact or a gap shorter than this many natural times sqrt(HP / g) is a flicker (26 ms
@@ -161,3 +162,21 @@ def finite_frames(track: AnimalTrack) -> int:
     """Frames from the first before any pose becomes NaN or infinite."""
     bad = ~np.isfinite(track.positions).all(axis=(1, 2)) | ~np.isfinite(track.rotations).all(axis=(1, 2))
     return int(np.argmax(bad)) if bad.any() else int(track.positions.shape[0])
+
+
+def named_tracks(clip: Clip, animal: str | None) -> list[AnimalTrack]:
+    """The clip's animals, or the one named `animal`.
+
+    Raises:
+        QuadpipeError: `unknown-animal` when no animal of the clip has that name.
+    """
+    if animal is None:
+        return list(clip.animals)
+    tracks = [track for track in clip.animals if track.name == animal]
+    if not tracks:
+        raise QuadpipeError.single(
+            "unknown-animal",
+            f"the clip has no animal named {animal!r}",
+            hint=did_you_mean(animal, [t.name for t in clip.animals]),
+        )
+    return tracks

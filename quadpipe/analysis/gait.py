@@ -14,13 +14,13 @@ from quadpipe.analysis.footfalls import (
     footfalls_of,
     frame_rate_note,
     min_run_frames,
+    named_tracks,
     toe_tips,
 )
 from quadpipe.analysis.report import AnimalGait, Footfall, Gait, GaitReport, LegGait
 from quadpipe.anatomy import roles
 from quadpipe.animals.sizing import GRAVITY
 from quadpipe.clip.model import AnimalTrack, Clip
-from quadpipe.core.errors import QuadpipeError, did_you_mean
 
 REFERENCE_LEG = "lh"
 """The foot whose touchdowns start every stride (phase 0), as in Hildebrand's gait diagrams."""
@@ -45,15 +45,7 @@ def analyze_clip(clip: Clip, animal: str | None = None) -> GaitReport:
         QuadpipeError: `unknown-animal` when no animal of the clip has that name;
             `bad-clip-sensor` when a controller sensor has the wrong shape.
     """
-    tracks = clip.animals
-    if animal is not None:
-        tracks = [track for track in clip.animals if track.name == animal]
-        if not tracks:
-            raise QuadpipeError.single(
-                "unknown-animal",
-                f"the clip has no animal named {animal!r}",
-                hint=did_you_mean(animal, [t.name for t in clip.animals]),
-            )
+    tracks = named_tracks(clip, animal)
     return GaitReport(clip.fps, clip.frame_count, tuple(_analyze_track(clip, track) for track in tracks))
 
 

@@ -108,7 +108,7 @@ def load_role_map(path: str | Path) -> RoleMap:
         QuadpipeError: YAML or schema errors, and `unknown-role` for every role that is not
             one of the 39, each at its line with a "did you mean" hint.
     """
-    doc = load_yaml(path)
+    doc = load_yaml(path, "role map", RoleMapModel)
     model = validate_document(RoleMapModel, doc)
     patterns = None
     if model.roles is not None:

@@ -8,20 +8,32 @@ carries the thesis's pelvis height and a real body mass:
     limits: ../limits/thesis.tsv
     pelvis_height_cm: 65.56     # thesis Fig. 6
     mass_kg: 30.0               # Labrador, breed standard 25-36 kg
+    gaits:                      # the species' repertoire: Froude ranges, cited
+      walk: {froude: [0, 0.6]}
+      trot: {froude: [0.35, 3]}
+      gallop: {froude: [2, 5], sequence: rotary}
+
+The repertoire reaches the controllers as parameters they may declare (see
+`repertoire_parameters`), and a gait controller the species does not use runs with a warning
+(`gait_warning`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Literal, get_args
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from quadpipe.anatomy.limits import JointLimit
 from quadpipe.anatomy.skeleton import Skeleton
 from quadpipe.core import configs
-from quadpipe.core.errors import Issue, QuadpipeError
+from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.limits import BODY_MASS_KG, PELVIS_HEIGHT_CM
+from quadpipe.core.textfiles import missing_file
 from quadpipe.core.yamlio import Name, YamlDocument, load_yaml, validate_document
 
 REFERENCE_HP_M = 0.6556
@@ -32,6 +44,40 @@ REFERENCE_MASS_KG = 30.0
 
 HP_MISMATCH_WARNING = 0.05
 """Warn when the skeleton's pelvis height differs from the config's by more than 5 %."""
+
+
+GaitName = Literal["walk", "amble", "trot", "pace", "canter", "gallop", "bound", "half_bound"]
+"""The gaits an animal config may list, slowest first (each but `half_bound` has a controller of its name)."""
+
+GAIT_NAMES: tuple[str, ...] = get_args(GaitName)
+"""The gait names, in `GaitName` order."""
+
+
+class GaitUse(BaseModel):
+    """One gait of a species' repertoire (`gaits:` in an animal config)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    froude: tuple[float, float] = Field(
+        description="Froude numbers (v^2 / (g HP)) over which the species uses the gait, [from, to]; "
+        "where two gaits' ranges overlap, `auto_gait` blends one into the other."
+    )
+    sequence: Literal["transverse", "rotary"] | None = Field(
+        None,
+        description="For a gallop: transverse (the fore pair lands in the hind pair's left/right order) or rotary.",
+    )
+
+    @model_validator(mode="after")
+    def _ordered(self) -> GaitUse:
+        low, high = self.froude
+        if not 0 <= low < high < math.inf:
+            raise ValueError(f"froude: [{low}, {high}] is not a range of finite Froude numbers from low to high")
+        return self
+
+
+def default_gaits() -> dict[GaitName, GaitUse]:
+    """The repertoire of an animal whose config lists none, or made from bare files: a walk."""
+    return {"walk": GaitUse(froude=(0.0, 0.6), sequence=None)}
 
 
 class AnimalConfig(BaseModel):
@@ -46,6 +92,10 @@ class AnimalConfig(BaseModel):
     pelvis_height_cm: float = Field(description="The thesis's HP: pelvis height in centimetres.")
     mass_kg: float = Field(description="Real adult body mass in kilograms; the model weighs this.")
     description: str = Field("", description="One line for `quadpipe animals`.")
+    gaits: dict[GaitName, GaitUse] = Field(
+        default_factory=default_gaits,
+        description="The species' gaits and the Froude numbers it uses them at (default: a walk).",
+    )
 
 
 @dataclass(frozen=True)
@@ -60,6 +110,8 @@ class Animal:
         mass_kg: total body mass.
         source: the config or skeleton file it came from.
         warnings: non-fatal issues (unplaced joints, HP mismatch).
+        gaits: the species' repertoire, slowest gait first (a walk for an animal made from bare files).
+        gaits_at: where the repertoire was written (its config's `gaits:`), for messages.
     """
 
     name: str
@@ -69,6 +121,8 @@ class Animal:
     mass_kg: float
     source: str
     warnings: tuple[Issue, ...] = ()
+    gaits: Mapping[GaitName, GaitUse] = field(default_factory=default_gaits)
+    gaits_at: Location | None = None
 
 
 def load_animal(name_or_path: str | Path) -> Animal:
@@ -81,7 +135,7 @@ def load_animal(name_or_path: str | Path) -> Animal:
     from quadpipe.importers import load_limits, load_skeleton
 
     path = configs.find_config("animals", name_or_path)
-    doc = load_yaml(path)
+    doc = load_yaml(path, "animal", AnimalConfig)
     config = validate_document(AnimalConfig, doc)
     PELVIS_HEIGHT_CM.check(config.pelvis_height_cm, "pelvis_height_cm", where=doc.locate(("pelvis_height_cm",)))
     BODY_MASS_KG.check(config.mass_kg, "mass_kg", where=doc.locate(("mass_kg",)))
@@ -103,7 +157,10 @@ def load_animal(name_or_path: str | Path) -> Animal:
                 severity="warning",
             )
         )
-    return Animal(config.name, skeleton, limits, hp, config.mass_kg, str(path), tuple(warnings))
+    gaits = {name: config.gaits[name] for name in get_args(GaitName) if name in config.gaits}
+    return Animal(
+        config.name, skeleton, limits, hp, config.mass_kg, str(path), tuple(warnings), gaits, doc.locate(("gaits",))
+    )
 
 
 def _named_file(doc: YamlDocument, key: str, what: str) -> Path:
@@ -115,12 +172,11 @@ def _named_file(doc: YamlDocument, key: str, what: str) -> Path:
     name = str(doc.data[key])
     path = Path(doc.file).parent / name
     if not path.is_file():
-        raise QuadpipeError.single(
-            "file-not-found",
-            f"{key}: {what} file {name!r} does not exist (looked for {str(path)!r})",
-            where=doc.locate((key,)),
-            hint="the path is relative to this animal config's folder",
+        issue = missing_file(
+            path, what, name=name, where=doc.locate((key,)), hint="the path is relative to this animal config's folder"
         )
+        looked = f" (looked for {str(path)!r})" if issue.code == "file-not-found" else ""
+        raise QuadpipeError([replace(issue, message=f"{key}: {issue.message}{looked}")])
     return path
 
 
@@ -204,3 +260,36 @@ def _refuse_skeleton_options(source: str | Path, options: dict[str, object]) -> 
             f"{given[0]} applies to a skeleton file, not to the animal {str(source)!r}",
             hint=f"set `{_CONFIG_KEY_OF_OPTION[given[0]]}:` in a copy of {path} and give that file",
         )
+
+
+def repertoire_parameters(animal: Animal) -> dict[str, str]:
+    """The species' repertoire as controller parameter values (YAML text), offered to a
+    controller that declares them (`auto_gait`, `gallop`), as a scene offers its goals.
+
+    For every gait of `GAIT_NAMES`: `uses_<gait>` (1 or 0) and, for a gait it uses,
+    `<gait>_froude_min` and `<gait>_froude_max`; `top_froude`, the top of the fastest; and
+    `gallop_rotary`, 1 for a rotary gallop (0 for a transverse one or none).
+    """
+    values = {f"uses_{name}": "1" if name in animal.gaits else "0" for name in GAIT_NAMES}
+    for name, use in animal.gaits.items():
+        values[f"{name}_froude_min"], values[f"{name}_froude_max"] = (f"{froude:g}" for froude in use.froude)
+    values["top_froude"] = f"{max(use.froude[1] for use in animal.gaits.values()):g}"
+    gallop = animal.gaits.get("gallop")
+    values["gallop_rotary"] = "1" if gallop is not None and gallop.sequence == "rotary" else "0"
+    return values
+
+
+def gait_warning(animal: Animal, controller: str) -> Issue | None:
+    """A warning when `controller` is the name of a gait the species does not use (None otherwise).
+
+    The gait runs anyway: the warning says the motion does not read as the species'.
+    """
+    if controller not in GAIT_NAMES or controller in animal.gaits:
+        return None
+    return Issue(
+        "gait-not-in-repertoire",
+        f"the {animal.name} does not {controller} (its gaits: {', '.join(animal.gaits)}); running it anyway",
+        animal.gaits_at or Location(animal.source),
+        f"its gaits are listed under `gaits:` in {animal.source}; `auto_gait` picks among them by speed",
+        severity="warning",
+    )

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 from quadpipe.animals.sizing import FRAME_RATE
 
 if TYPE_CHECKING:
+    from quadpipe.bodies import Look
     from quadpipe.core.errors import Location
     from quadpipe.sim.simulation import Result
 
@@ -34,10 +35,12 @@ def bake(
     fps: float = FRAME_RATE,
     on_frame: Callable[[float], None] | None = None,
     places: Mapping[str, Location] | None = None,
+    look: Look = "body",
 ) -> Result:
     """Simulate once (see `quadpipe.sim.simulation.simulate`), write the clip into every output,
     then the metrics JSON: all of them, or none (inside a running `transaction`, at its commit).
-    `places` says where each of `parameters` was written (a batch plan's line), for messages.
+    `places` says where each of `parameters` was written (a batch plan's line), for messages;
+    `look` how glTF and USD files draw the animals (`quadpipe.bodies`).
 
     Raises:
         QuadpipeError: the inputs cannot be loaded, the simulation blew up, a file cannot be
@@ -59,6 +62,6 @@ def bake(
     )
     with transaction():
         for output in outputs:
-            export_clip(result.clip, output)
+            export_clip(result.clip, output, look=look)
         write_text(metrics_path, json.dumps(result.metrics, indent=2) + "\n")
     return result

@@ -123,7 +123,7 @@ def load_plan(path: str | Path) -> BatchPlan:
         QuadpipeError: syntax or schema errors, and override selectors that name no animal,
             controller or scene of the plan, each at its file:line:col.
     """
-    doc = load_yaml(path)
+    doc = load_yaml(path, "batch plan", BatchPlan)
     plan = _validated(doc)
     issues = _selector_issues(plan, doc)
     if issues:

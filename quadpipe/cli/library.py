@@ -84,10 +84,12 @@ def roles(
     from quadpipe.importers import read_raw_skeleton
 
     if output is not None:
+        from quadpipe.core.atomic import check_writable
         from quadpipe.core.outputs import check_distinct, check_suffix
 
         check_distinct([("-o", output)], [("the skeleton", skeleton)])
         check_suffix("-o", output, ROLE_MAP_SUFFIXES, "a role map (YAML)")
+        check_writable(output)
     raw = read_raw_skeleton(skeleton)
     guess = guess_roles(raw)
     placed = {role: name for name, role in guess.roles.items()}
@@ -114,13 +116,14 @@ def convert(
 
     Example: quadpipe convert dog -o dog.xml
     """
-    from quadpipe.core.atomic import write_text
+    from quadpipe.core.atomic import check_writable, write_text
     from quadpipe.core.outputs import check_distinct, check_suffix
     from quadpipe.world.placement import Placement, world_mjcf
 
     inputs = [("the source file", Path(source)), ("the --limits file", limits), ("the --roles file", roles)]
     check_distinct([("-o", output)], [(option, path) for option, path in inputs if path is not None])
     check_suffix("-o", output, MJCF_SUFFIXES, "MJCF (XML)")
+    check_writable(output)
     built = built_animal(source, limits, roles, mass)
     write_text(output, world_mjcf([Placement(built.animal.name, built)], floor=floor))
     typer.echo(

@@ -11,10 +11,14 @@ from quadpipe.cli.options import (
     AnimalOpt,
     ControllerOpt,
     FormatOpt,
+    Look,
+    LookOpt,
     OutputFormat,
     SceneOpt,
     SecondsOpt,
     SetOpt,
+    look_name,
+    parameter_places,
     parse_parameters,
 )
 from quadpipe.cli.output import write_gait_files
@@ -33,6 +37,7 @@ def render(
     width: Annotated[int, typer.Option(help="Frame width in pixels.")] = 640,
     height: Annotated[int, typer.Option(help="Frame height in pixels.")] = 480,
     overlays: Annotated[str, typer.Option(help="Overlays to draw: contacts,trail or none.")] = "contacts,trail",
+    look: LookOpt = Look.body,
 ) -> None:
     """Render a clip headless (MuJoCo's renderer) to MP4, GIF, or a PNG contact sheet.
 
@@ -55,12 +60,19 @@ def render(
         from quadpipe.sim.simulation import simulate as run_simulation
 
         baked = run_simulation(
-            animal, controller, seconds=seconds, scene=scene, parameters=parse_parameters(parameters)
+            animal,
+            controller,
+            seconds=seconds,
+            scene=scene,
+            parameters=parse_parameters(parameters),
+            places=parameter_places(parameters),
         ).clip
     names = [] if overlays == "none" else [name.strip() for name in overlays.split(",") if name.strip()]
     with transaction():
         for output in outputs:
-            render_clip(baked, output, width=width, height=height, overlays=builtin_overlays(baked, names))
+            render_clip(
+                baked, output, width=width, height=height, overlays=builtin_overlays(baked, names), look=look_name(look)
+            )
     for output in outputs:
         typer.echo(f"wrote {output}")
 

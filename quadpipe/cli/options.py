@@ -4,9 +4,13 @@ from __future__ import annotations
 
 from enum import Enum
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
+
+if TYPE_CHECKING:
+    from quadpipe.bodies import Look as LookName
+    from quadpipe.core.errors import Location
 
 
 class OutputFormat(str, Enum):
@@ -17,6 +21,23 @@ class OutputFormat(str, Enum):
 
 
 FormatOpt = Annotated[OutputFormat, typer.Option("--format", help="Output format.")]
+
+
+class Look(str, Enum):
+    """How animals are drawn in glTF, USD and renders (`quadpipe.bodies.LOOKS`)."""
+
+    body = "body"
+    bones = "bones"
+
+
+def look_name(look: Look) -> LookName:
+    """The `quadpipe.bodies.Look` an option value names."""
+    return look.value
+
+
+LookOpt = Annotated[
+    Look, typer.Option("--look", help="Draw each animal's skinned body, or its bone capsules (glTF, USD, renders).")
+]
 
 SourceArg = Annotated[
     str,
@@ -73,7 +94,17 @@ def parse_parameters(pairs: list[str] | None) -> dict[str, str]:
         name, sep, value = pair.partition("=")
         if not sep or not name.strip():
             raise QuadpipeError.single(
-                "bad-parameter", f"--set {pair!r} is not NAME=VALUE", hint='e.g. --set "pedal_force=0.2 bw"'
+                "bad-parameter",
+                "a parameter is given as NAME=VALUE",
+                file=f"--set {pair}",
+                hint='e.g. --set "pedal_force=0.2 bw"',
             )
         result[name.strip()] = value.strip()
     return result
+
+
+def parameter_places(pairs: list[str] | None) -> dict[str, Location]:
+    """Where each `--set` value was given, for messages about it: `--set froude=2 m: error ...`."""
+    from quadpipe.core.errors import Location as Given
+
+    return {pair.partition("=")[0].strip(): Given(f"--set {pair}") for pair in pairs or []}

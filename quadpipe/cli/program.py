@@ -12,7 +12,7 @@ import os
 import sys
 import warnings
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, NoReturn
 
 import typer
 
@@ -86,15 +86,13 @@ def main() -> None:
     except signals.Interrupted as exc:
         if _state["debug"]:
             raise
-        typer.echo(_interrupted(exc), err=True)
-        sys.exit(exc.exit_code)
+        _end_interrupted(exc)
     except Exception as exc:  # a bug in quadpipe, not in the user's input
         if _state["debug"]:
             raise
         interrupt = _interrupt_behind(exc)
         if interrupt is not None:
-            typer.echo(_interrupted(interrupt), err=True)
-            sys.exit(interrupt.exit_code)
+            _end_interrupted(interrupt)
         typer.echo(
             f"internal error: {type(exc).__name__}: {exc}\n  hint: run again with --debug for the traceback, and report it",
             err=True,
@@ -116,6 +114,20 @@ def _interrupt_behind(error: BaseException) -> Interrupted | None:
         seen.add(id(cause))
         cause = cause.__cause__ or cause.__context__
     return None
+
+
+def _end_interrupted(interrupt: Interrupted) -> NoReturn:
+    """End an interrupted run at once with 128 + the signal's number, after its one line.
+
+    Everything that must be undone (staged files, workers) was undone on the way here; the
+    interpreter's own teardown is skipped, so that a library interrupted half-way (a big C
+    extension's import, its threads) cannot change the exit code (a bake under load once ended
+    with the right line and exit code 1).
+    """
+    typer.echo(_interrupted(interrupt), err=True)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(interrupt.exit_code)
 
 
 def _interrupted(interrupt: Interrupted) -> str:

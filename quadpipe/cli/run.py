@@ -14,15 +14,20 @@ from quadpipe.cli.options import (
     DiagramOpt,
     FpsOpt,
     GaitReportOpt,
+    Look,
+    LookOpt,
     MetricsOpt,
     SceneOpt,
     SecondsOpt,
     SetOpt,
+    look_name,
+    parameter_places,
     parse_parameters,
 )
-from quadpipe.cli.output import write_gait_files
+from quadpipe.cli.output import print_warnings, write_gait_files
 
 if TYPE_CHECKING:
+    from quadpipe.bodies import Look as LookName
     from quadpipe.preview.base import Preview
 
 
@@ -39,12 +44,15 @@ def simulate(
     fps: FpsOpt = FRAME_RATE,
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
+    look: LookOpt = Look.body,
 ) -> None:
     """Simulate an animal under a controller and write the clip and its metrics.
 
     Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png
     """
-    _bake_and_report(animal, controller, scene, seconds, [output], metrics, parameters, fps, gait_report, diagram)
+    _bake_and_report(
+        animal, controller, scene, seconds, [output], metrics, parameters, fps, gait_report, diagram, look_name(look)
+    )
 
 
 def bake(
@@ -58,13 +66,16 @@ def bake(
     fps: FpsOpt = FRAME_RATE,
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
+    look: LookOpt = Look.body,
 ) -> None:
     """Simulate once and bake the motion into every requested file; the suffix picks the format.
 
     Formats: .glb .gltf (glTF 2.0), .usda .usdc .usdz (OpenUSD), .bvh, .npz (raw clip).
     Example: quadpipe bake --animal horse --controller trot --scene hill -o horse.glb -o horse.usdc --gait-report horse.gait.json
     """
-    _bake_and_report(animal, controller, scene, seconds, outputs, metrics, parameters, fps, gait_report, diagram)
+    _bake_and_report(
+        animal, controller, scene, seconds, outputs, metrics, parameters, fps, gait_report, diagram, look_name(look)
+    )
 
 
 def _bake_and_report(
@@ -78,6 +89,7 @@ def _bake_and_report(
     fps: float,
     gait_report: Path | None,
     diagram: Path | None,
+    look: LookName,
 ) -> None:
     """`simulate` and `bake`: check every output path first, bake, print the figures, write the gait
     files: every file, or none (they are renamed into place together at the end)."""
@@ -98,8 +110,11 @@ def _bake_and_report(
             metrics_path=metrics_path,
             scene=scene,
             parameters=parse_parameters(parameters),
+            places=parameter_places(parameters),
             fps=fps,
+            look=look,
         )
+        print_warnings(result.warnings)
         typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
         for name, figures in result.metrics["animals"].items():
             typer.echo(
@@ -220,7 +235,7 @@ def preview(
     else:
         from quadpipe.preview import LivePreview
 
-        model = LivePreview(animal, controller, scene, parse_parameters(parameters))
+        model = LivePreview(animal, controller, scene, parse_parameters(parameters), parameter_places(parameters))
         title = f"quadpipe preview: {animal} / {controller} / {scene}"
     check_display()
     open_window(model, title)

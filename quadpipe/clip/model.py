@@ -41,6 +41,27 @@ class Shape:
     rgba: tuple[float, float, float, float] = (0.8, 0.8, 0.8, 1.0)
 
 
+@dataclass(frozen=True)
+class BodyMesh:
+    """An animal's skin: a closed triangle mesh in the rest (bind) pose, skinned to its bones.
+
+    Attributes:
+        vertices: (N, 3) rest positions, world frame, metres.
+        normals: (N, 3) unit normals.
+        colors: (N, 4) RGBA per vertex.
+        faces: (M, 3) vertex indices, counter-clockwise seen from outside.
+        joints: (N, K) bone indices (into the track's roles) influencing each vertex.
+        weights: (N, K) their weights, each row summing to 1.
+    """
+
+    vertices: np.ndarray
+    normals: np.ndarray
+    colors: np.ndarray
+    faces: np.ndarray
+    joints: np.ndarray
+    weights: np.ndarray
+
+
 @dataclass
 class AnimalTrack:
     """One animal's motion.
@@ -59,6 +80,7 @@ class AnimalTrack:
         pelvis_height: HP in metres, the animal's length unit for thresholds.
         mass_kg: body mass.
         foot_contacts: (F, 4) booleans, legs in `quadpipe.anatomy.roles.LEGS` order.
+        body: its skinned body mesh, None to draw the bones' shapes (see `quadpipe.bodies`).
     """
 
     name: str
@@ -73,6 +95,7 @@ class AnimalTrack:
     pelvis_height: float
     mass_kg: float
     foot_contacts: np.ndarray
+    body: BodyMesh | None = None
 
 
 @dataclass

@@ -46,6 +46,8 @@ GROUPS: tuple[CodeGroup, ...] = (
             "duplicate-key": "a key appears twice in one mapping",
             "file-unreadable": "the file cannot be read",
             "file-not-found": "a file named on the command line or in another file (`extends`, a scene's animal) does not exist",
+            "empty-file": "a YAML file (controller, scene, animal, batch plan, role map) holding nothing, or only comments",
+            "is-a-folder": "a folder named where a file is expected (the hint names a file inside it)",
             "unknown-key": "a key that does not exist in that place",
             "missing-key": "a required key is missing",
             "invalid-value": "a value of the wrong shape (text instead of a list, ...)",
@@ -125,6 +127,7 @@ GROUPS: tuple[CodeGroup, ...] = (
         "Joint limit tables (`configs/limits/*.tsv`, `.csv`) and the limits they give each role.",
         {
             "empty-table": "a limits table with no rows",
+            "short-row": "a limits table row with fewer cells than the columns its header names",
             "bad-header": "a limits table header missing columns",
             "duplicate-row": "two rows for one bone",
             "unknown-bone": "a limits table row keyed by a name that is no role, bone or group, so it applies to no joint",
@@ -138,6 +141,8 @@ GROUPS: tuple[CodeGroup, ...] = (
         "Animal configs (`configs/animals/*.yaml`): a skeleton, limits and sizes.",
         {
             "hp-mismatch": "(warning) the skeleton's pelvis height differs from the config's",
+            "gait-not-in-repertoire": "(warning) a gait controller run on an animal whose species does not use that gait",
+            "mixed-repertoires": "the animals of one run offer different gait settings to their one controller",
         },
     ),
     CodeGroup(

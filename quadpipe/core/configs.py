@@ -11,6 +11,7 @@ import os
 from pathlib import Path
 
 from quadpipe.core.errors import QuadpipeError, did_you_mean
+from quadpipe.core.textfiles import missing_file
 
 CONFIG_SUFFIX = ".yaml"
 
@@ -41,7 +42,7 @@ def find_config(kind: str, name_or_path: str | Path) -> Path:
     if looks_like_path:
         if candidate.is_file():
             return candidate
-        raise QuadpipeError.single("file-not-found", f"{kind[:-1]} file {text!r} does not exist", file=text)
+        raise QuadpipeError([missing_file(candidate, kind[:-1], name=text, suffixes=(CONFIG_SUFFIX, ".yml"))])
     path = config_root() / kind / f"{text}{CONFIG_SUFFIX}"
     if path.is_file():
         return path

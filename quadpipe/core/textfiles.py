@@ -4,14 +4,18 @@
 (a byte order mark is dropped) and nothing else: UTF-16, Latin-1 or binary data is a
 `not-utf8` error, and a NUL byte (binary data, or UTF-16 without its byte order mark) a
 `not-text` error, each located at the first bad byte with what to do about it.
+
+`missing_file` is the one answer for a named file that is not there: `file-not-found`, or
+`is-a-folder` (with a file inside it to give instead) when the name is a folder's.
 """
 
 from __future__ import annotations
 
 import codecs
+from collections.abc import Iterable
 from pathlib import Path
 
-from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.limits import Limit
 
 SAVE_AS_UTF8 = "save the file as UTF-8 text (in most editors: Save As, encoding UTF-8)"
@@ -20,13 +24,18 @@ SAVE_AS_UTF8 = "save the file as UTF-8 text (in most editors: Save As, encoding 
 _UTF16_BOMS = (codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)
 
 
-def read_text(path: str | Path, limit: Limit) -> str:
+def read_text(path: str | Path, limit: Limit, what: str = "") -> str:
     """Read a text file whole: its size checked against `limit` first, then decoded as UTF-8.
 
+    `what` names the kind of file in messages (`batch plan`).
+
     Raises:
-        QuadpipeError: `file-unreadable`, `limit-exceeded` (too big), `not-utf8` or `not-text`.
+        QuadpipeError: `file-not-found`, `is-a-folder`, `file-unreadable`, `limit-exceeded`
+            (too big), `not-utf8` or `not-text`.
     """
     path = Path(path)
+    if path.is_dir() or not path.exists():
+        raise QuadpipeError([missing_file(path, what, suffixes=(path.suffix,))])
     try:
         size = path.stat().st_size
         if size > limit.value:
@@ -83,3 +92,37 @@ def _location(data: bytes, offset: int, file: str) -> Location:
     line_start = max(data.rfind(b"\n", 0, offset) + 1, len(codecs.BOM_UTF8) if data.startswith(codecs.BOM_UTF8) else 0)
     column = len(data[line_start:offset].decode("utf-8", errors="replace")) + 1
     return Location(file, data.count(b"\n", 0, offset) + 1, column)
+
+
+def missing_file(
+    path: Path,
+    what: str,
+    *,
+    name: str | None = None,
+    where: Location | None = None,
+    suffixes: Iterable[str] = (),
+    hint: str | None = None,
+) -> Issue:
+    """The issue for a file that is not there: a folder of that name, or nothing.
+
+    Args:
+        path: where the file was looked for.
+        what: the kind of file, for the message (`controller`, `skeleton`); empty: just "file".
+        name: the name as the user wrote it (default: `path`).
+        where: where it was named (default: the path itself).
+        suffixes: the suffixes such a file has, to suggest one inside a folder.
+        hint: the hint for a missing file.
+    """
+    shown = name if name is not None else str(path)
+    kind = f"{what} file" if what else "file"
+    where = where if where is not None else Location(shown)
+    if not path.is_dir():
+        return Issue("file-not-found", f"{kind} {shown!r} does not exist", where, hint)
+    wanted = {suffix.lower() for suffix in suffixes if suffix}
+    inside = sorted(item.name for item in path.iterdir() if item.is_file() and item.suffix.lower() in wanted)
+    if inside:
+        more = f" ({len(inside)} there)" if len(inside) > 1 else ""
+        advice = f"give a file inside it, e.g. {str(Path(shown) / inside[0])!r}{more}"
+    else:
+        advice = f"give the {kind} itself" + (f" ({', '.join(sorted(wanted))})" if wanted else "")
+    return Issue("is-a-folder", f"{kind} {shown!r} is a folder, not a file", where, advice)

@@ -9,6 +9,7 @@ bound (nesting, aliases: see `quadpipe.core.limits`).
 from __future__ import annotations
 
 import difflib
+import math
 import types
 import typing
 from collections.abc import Iterable
@@ -48,6 +49,8 @@ class YamlDocument:
     file: str
     key_positions: dict[PathKey, tuple[int, int]] = field(default_factory=dict)
     value_positions: dict[PathKey, tuple[int, int]] = field(default_factory=dict)
+    empty: bool = False
+    """Whether the text held no YAML node (nothing, or only comments): `data` is then `{}`."""
 
     def locate(self, path: Iterable[Any], *, key: bool = False) -> Location:
         """Return the location of `path`, or of its nearest ancestor that has one.
@@ -199,7 +202,7 @@ def _parse(text: str, file: str, loader_class: Any) -> YamlDocument:
     loader = loader_class(text)
     try:
         root = loader.get_single_node()
-        doc = YamlDocument(data=None, file=file)
+        doc = YamlDocument(data=None, file=file, empty=root is None)
         if root is None:  # empty, or only comments (a file cut short): errors point where it ends
             doc.value_positions[()] = (max(1, len(text.splitlines())), 1)
         doc.data = {} if root is None else _construct(root, (), doc, loader)
@@ -208,9 +211,36 @@ def _parse(text: str, file: str, loader_class: Any) -> YamlDocument:
         loader.dispose()
 
 
-def load_yaml(path: str | Path) -> YamlDocument:
-    """Read and parse a YAML file; a missing, unreadable, too big or non-UTF-8 file is a `QuadpipeError`."""
-    return parse_yaml(read_text(path, limits.MAX_YAML_FILE_BYTES), str(path))
+def load_yaml(path: str | Path, what: str = "", model: type[pydantic.BaseModel] | None = None) -> YamlDocument:
+    """Read and parse a YAML file; a missing, unreadable, too big or non-UTF-8 file is a `QuadpipeError`.
+
+    `what` names the kind of file in messages (`batch plan`). With the `model` of its format,
+    a file holding nothing (empty, or only comments) is an `empty-file` error whose hint names
+    the keys it needs, rather than one error per missing key.
+    """
+    text = read_text(path, limits.MAX_YAML_FILE_BYTES, what)
+    doc = parse_yaml(text, str(path))
+    if model is not None and doc.empty:
+        raise QuadpipeError([_empty_file(doc.file, text, what, model)])
+    return doc
+
+
+def _empty_file(file: str, text: str, what: str, model: type[pydantic.BaseModel]) -> Issue:
+    """The issue of a file with no data, and what a file of its `model` holds."""
+    fields = model.model_fields
+    required = [field.alias or name for name, field in fields.items() if field.is_required()]
+    keys = required or [field.alias or name for name, field in fields.items()]
+    quoted = [f"`{key}:`" for key in keys]
+    listed = ", ".join(quoted[:-1]) + (" and " if required else " or ") + quoted[-1] if len(quoted) > 1 else quoted[0]
+    kind = f"{what} file" if what else "file"
+    article = "an" if kind[0] in "aeiou" else "a"
+    holds = "needs at least" if required else "holds"
+    return Issue(
+        "empty-file",
+        f"the {kind} is empty" if not text.strip() else f"the {kind} holds only comments",
+        Location(file, 1, 1),
+        f"{article} {kind} {holds} {listed}",
+    )
 
 
 def _not_blank(value: str) -> str:
@@ -281,10 +311,67 @@ def _issue_from_pydantic(
             did_you_mean(name, valid) if valid else None,
         )
     if kind == "missing":
-        where = dotted(path[:-1]) or "the top level"
+        where = dotted(path[:-1]) or "the file's top level"
         return Issue("missing-key", f"required key {loc[-1]!r} is missing in {where}", doc.locate(path[:-1]))
-    message = err["msg"].removeprefix("Value error, ")
+    message = plain_message(err)
     return Issue("invalid-value", f"{dotted(path)}: {message}" if path else message, doc.locate(path))
+
+
+_EXPECTED_KIND: dict[str, str] = {
+    "float_type": "a number",
+    "float_parsing": "a number",
+    "int_type": "a whole number",
+    "int_parsing": "a whole number",
+    "int_from_float": "a whole number",
+    "finite_number": "a finite number",
+    "string_type": "text",
+    "dict_type": "a mapping of keys (`key: value`)",
+    "list_type": "a list",
+    "tuple_type": "a list",
+    "bool_type": "true or false",
+    "bool_parsing": "true or false",
+    "model_type": "a mapping of keys (`key: value`)",
+    "model_attributes_type": "a mapping of keys (`key: value`)",
+}
+"""Pydantic type errors -> what the value should have been, in the words of a YAML file."""
+
+_BOUNDS: dict[str, str] = {"greater_than": "more than", "greater_than_equal": "at least", "less_than": "less than"}
+_BOUNDS |= {"less_than_equal": "at most"}
+"""Pydantic bound errors -> how the bound reads in a message (its number is in the error's context)."""
+
+
+def plain_message(err: ErrorDetails) -> str:
+    """A pydantic error in plain words (`must be a number, not the text 'abc'`), without its wording
+    ("Input should be a valid number, unable to parse string as a number") or its type names."""
+    kind, ctx, given = err["type"], err.get("ctx") or {}, err.get("input")
+    if isinstance(given, float) and not math.isfinite(given):
+        return f"{given} is not a finite number"
+    if kind in _EXPECTED_KIND:
+        return f"must be {_EXPECTED_KIND[kind]}, not {described_value(given)}"
+    if kind in _BOUNDS:
+        bound = next(iter(ctx.values()), "?")
+        shown = f"{bound:g}" if isinstance(bound, float) else bound
+        return f"must be {_BOUNDS[kind]} {shown}, not {given}"
+    if kind in ("string_too_short", "too_short"):
+        if ctx.get("min_length") == 1:
+            return "cannot be empty"
+        return f"needs at least {ctx.get('min_length')} {'characters' if kind == 'string_too_short' else 'items'}"
+    if kind in ("string_too_long", "too_long"):
+        return f"takes at most {ctx.get('max_length')} {'characters' if kind == 'string_too_long' else 'items'}"
+    if kind in ("literal_error", "enum"):
+        return f"must be {ctx.get('expected', 'one of the listed values')}, not {described_value(given)}"
+    return err["msg"].removeprefix("Value error, ").removeprefix("Assertion failed, ")
+
+
+def described_value(value: Any) -> str:
+    """A value as a message names it: `the text 'abc'`, `a mapping`, `nothing (null)`."""
+    if value is None:
+        return "nothing (null)"
+    if isinstance(value, str):
+        return f"the text {value!r}" if len(value) <= 40 else "a text"
+    if isinstance(value, (dict, list, bool)):
+        return kind_of_value(value)
+    return f"the number {value}" if isinstance(value, (int, float)) else type(value).__name__
 
 
 # --------------------------------------------------------------------------- field names

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from quadpipe.bodies import Look, dress
 from quadpipe.clip.model import Clip
 from quadpipe.core.atomic import check_writable, transaction
 from quadpipe.core.errors import QuadpipeError
@@ -81,6 +82,9 @@ CLIP_FORMATS = FormatTable(
 )
 """Clip files quadpipe writes: suffix -> format (each writer takes the clip and the path)."""
 
+MESH_SUFFIXES = frozenset({".glb", ".gltf", ".usda", ".usdc", ".usdz"})
+"""The formats that hold the animals' meshes: their bodies, or their bones for `look="bones"`."""
+
 Exporter = Callable[[Clip, Path], None]
 
 
@@ -109,7 +113,7 @@ def supported_formats() -> list[ExportFormat]:
     ]
 
 
-def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False) -> Path:
+def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False, look: Look = "body") -> Path:
     """Write `clip` to `path`, in the format its suffix names.
 
     Args:
@@ -118,6 +122,9 @@ def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False) ->
         allow_partial: export a clip whose simulation did not end well (metadata `status` other
             than "ok"), keeping the frames before the first non-finite pose. Without it such a
             clip is refused.
+        look: the animals' meshes in glTF and USD: their skinned bodies (`body`, built from the
+            skeleton and the species' girths unless the clip carries them; see
+            `quadpipe.bodies`), or their bones' shapes (`bones`).
 
     Returns:
         The path written.
@@ -129,6 +136,8 @@ def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False) ->
     path = Path(path)
     writer: Exporter = _format_for(path).load(path)
     clip = _exportable(clip, allow_partial, path)
+    if path.suffix.lower() in MESH_SUFFIXES:
+        clip = dress(clip, look)
     if path.is_dir():
         raise QuadpipeError.single(
             "unwritable-output",

@@ -3,8 +3,9 @@
 glTF is +Y up, +Z forward, metres; quadpipe's frame (+X forward, +Y left, +Z up) maps to it by
 a cyclic permutation of the axes (glTF x = left, y = up, z = forward), which keeps handedness.
 
-Each animal is one skinned mesh at the scene root (all its bone shapes merged, each vertex
-weighted 1.0 to its bone through JOINTS_0/WEIGHTS_0, colours in COLOR_0), a skin whose inverse
+Each animal is one skinned mesh at the scene root: its body (`quadpipe.bodies`), each vertex
+weighted to up to four bones through JOINTS_0/WEIGHTS_0, or for `--look bones` all its bone
+shapes merged, each vertex weighted 1.0 to its bone; colours in COLOR_0. It has a skin whose inverse
 bind matrices are the bones' rest translations, and joint nodes in the 39-bone hierarchy with
 local TRS (named by role; `<animal>_<role>` when a clip holds several animals). One animation,
 `clip`, has a LINEAR translation and rotation channel per joint and per prop, keyed at every
@@ -158,21 +159,29 @@ def build(clip: Clip, uri: str | None = None) -> tuple[dict[str, Any], bytes]:
     return doc.finish(uri), bytes(doc.binary)
 
 
-def _primitive(doc: _Document, mesh: TriangleMesh, skin_joints: np.ndarray | None = None) -> dict:
-    """A triangle primitive (y-up) with normals and colours, skinned when joints are given."""
+def _primitive(
+    doc: _Document, mesh: TriangleMesh, joints: np.ndarray | None = None, weights: np.ndarray | None = None
+) -> dict:
+    """A triangle primitive (y-up) with normals and colours, skinned when joints are given.
+
+    Args:
+        joints: (N,) the one bone of each vertex (rigid, weight 1), or (N, 4) bones with `weights`.
+    """
     attributes = {
         "POSITION": doc.accessor(to_y_up(mesh.vertices), FLOAT, target=ARRAY_BUFFER, bounds=True),
         "NORMAL": doc.accessor(normalize(to_y_up(mesh.normals)), FLOAT, target=ARRAY_BUFFER),
         "COLOR_0": doc.accessor(mesh.colors[:, :3], FLOAT, target=ARRAY_BUFFER),
     }
-    if skin_joints is not None:
-        joints = np.zeros((len(skin_joints), 4), dtype=np.int64)
-        joints[:, 0] = skin_joints
-        weights = np.zeros((len(skin_joints), 4))
-        weights[:, 0] = 1.0
-        joint_type = UNSIGNED_BYTE if skin_joints.max(initial=0) < 256 else UNSIGNED_SHORT
-        attributes["JOINTS_0"] = doc.accessor(joints, joint_type, target=ARRAY_BUFFER)
-        attributes["WEIGHTS_0"] = doc.accessor(weights, FLOAT, target=ARRAY_BUFFER)
+    if joints is not None:
+        if weights is None:
+            joints, weights = joints[:, None], np.ones((len(joints), 1))
+        influences = np.zeros((len(joints), 4), dtype=np.int64)
+        influences[:, : joints.shape[1]] = joints
+        padded = np.zeros((len(joints), 4))
+        padded[:, : weights.shape[1]] = weights
+        joint_type = UNSIGNED_BYTE if joints.max(initial=0) < 256 else UNSIGNED_SHORT
+        attributes["JOINTS_0"] = doc.accessor(influences, joint_type, target=ARRAY_BUFFER)
+        attributes["WEIGHTS_0"] = doc.accessor(padded, FLOAT, target=ARRAY_BUFFER)
     index_type = UNSIGNED_SHORT if len(mesh.vertices) <= np.iinfo(np.uint16).max else UNSIGNED_INT
     indices = doc.accessor(mesh.faces.reshape(-1), index_type, target=ELEMENT_ARRAY_BUFFER)
     return {"attributes": attributes, "indices": indices, "material": 0, "mode": 4}
@@ -195,12 +204,10 @@ def _add_animal(doc: _Document, track: AnimalTrack, prefix: str) -> None:
         doc.animate(joint, "translation", to_y_up(translations[:, index]))
         doc.animate(joint, "rotation", _xyzw(quat_to_y_up(rotations[:, index])))
 
-    bones = [index for index, shapes in enumerate(track.shapes) if shapes]
-    if not bones:
+    primitive = _body_primitive(doc, track) if track.body is not None else _bones_primitive(doc, track)
+    if primitive is None:
         return
-    pieces = [shapes_mesh(track.shapes[b]).translated(track.rest_start[b]) for b in bones]
-    bone_of_vertex = np.concatenate([np.full(len(piece.vertices), b) for piece, b in zip(pieces, bones)])
-    mesh = doc.add("meshes", {"name": track.name, "primitives": [_primitive(doc, merge(pieces), bone_of_vertex)]})
+    mesh = doc.add("meshes", {"name": track.name, "primitives": [primitive]})
     inverse_bind = np.tile(np.eye(4), (len(joints), 1, 1))
     inverse_bind[:, :3, 3] = -to_y_up(track.rest_start)
     skin = {
@@ -212,6 +219,26 @@ def _add_animal(doc: _Document, track: AnimalTrack, prefix: str) -> None:
     doc.skins.append(skin)
     extras = {"species": track.species, "pelvis_height_m": track.pelvis_height, "mass_kg": track.mass_kg}
     doc.node({"name": track.name, "mesh": mesh, "skin": len(doc.skins) - 1, "extras": extras}, root=True)
+
+
+def _bones_primitive(doc: _Document, track: AnimalTrack) -> dict | None:
+    """The bones' shapes merged into one primitive, each vertex rigidly on its bone (None: no shapes)."""
+    bones = [index for index, shapes in enumerate(track.shapes) if shapes]
+    if not bones:
+        return None
+    pieces = [shapes_mesh(track.shapes[b]).translated(track.rest_start[b]) for b in bones]
+    bone_of_vertex = np.concatenate([np.full(len(piece.vertices), b) for piece, b in zip(pieces, bones)])
+    return _primitive(doc, merge(pieces), bone_of_vertex)
+
+
+def _body_primitive(doc: _Document, track: AnimalTrack) -> dict:
+    """The animal's body mesh, smoothly skinned (up to four weighted bones per vertex)."""
+    body = track.body
+    assert body is not None
+    mesh = TriangleMesh(body.vertices, body.normals, body.colors, body.faces)
+    weights = np.asarray(body.weights, dtype=np.float32)
+    weights /= weights.sum(axis=1, keepdims=True)  # each sums to 1 in float32, as the validator checks
+    return _primitive(doc, mesh, body.joints, weights)
 
 
 def _add_prop(doc: _Document, prop: PropTrack) -> None:

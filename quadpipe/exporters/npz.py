@@ -27,6 +27,7 @@ from quadpipe.clip.model import AnimalTrack, Clip, PropTrack, Shape
 from quadpipe.core.atomic import write_bytes
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.limits import MAX_FPS
+from quadpipe.core.textfiles import missing_file
 
 FORMAT_NAME = "quadpipe-clip"
 FORMAT_VERSION = 1
@@ -129,7 +130,7 @@ def load_clip(path: str | Path) -> Clip:
     """
     path = Path(path)
     if not path.is_file():
-        raise QuadpipeError.single("file-not-found", f"clip file {str(path)!r} does not exist", file=str(path))
+        raise QuadpipeError([missing_file(path, "clip", suffixes=(".npz",))])
     if path.stat().st_size == 0:
         raise QuadpipeError.single(
             "bad-clip-file", f"{str(path)!r} is empty", file=str(path), hint="bake the clip again (an .npz output)"

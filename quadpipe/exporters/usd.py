@@ -8,8 +8,11 @@ The default prim `/World` holds:
   hierarchy, `pelvis/spine0/spine1`; world bind transforms and local rest transforms, both
   pure translations since bone frames are world-aligned at rest), a `SkelAnimation` (local
   translations, rotations and scales, sampled at every frame) bound with `SkelBindingAPI`, and
-  one `Mesh` per bone under `meshes/`, its points at the rest pose, bound rigidly to its joint
-  (constant `jointIndices`/`jointWeights` of element size 1, identity `geomBindTransform`);
+  its body: one `Mesh`, `body`, its points at the rest pose, skinned smoothly (vertex
+  `jointIndices`/`jointWeights`, four per point, identity `geomBindTransform`) - what Blender
+  and Maya import as a skinned mesh; or, for `--look bones`, one `Mesh` per bone under
+  `meshes/`, bound rigidly to its joint (constant `jointIndices`/`jointWeights` of element
+  size 1);
 - `props/<name>`: an `Xform` moved by time-sampled translate and orient ops, with its mesh;
 - `terrain`: the static world shapes as one mesh.
 
@@ -28,7 +31,7 @@ import numpy as np
 
 from quadpipe.clip.kinematics import continuous, local_poses, normalize, rest_offsets
 from quadpipe.clip.meshes import TriangleMesh, shape_mesh, shapes_mesh
-from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
+from quadpipe.clip.model import AnimalTrack, BodyMesh, Clip, PropTrack
 from quadpipe.core.atomic import atomic_path, scratch_path
 from quadpipe.core.signals import signals_deferred
 from quadpipe.core.version import __version__
@@ -135,11 +138,31 @@ def _add_animal(stage: Usd.Stage, path: str, track: AnimalTrack) -> None:
     animation.CreateScalesAttr(Vt.Vec3hArray.FromNumpy(np.ones((len(track.roles), 3), dtype=np.float16)))
     UsdSkel.BindingAPI.Apply(skeleton.GetPrim()).CreateAnimationSourceRel().SetTargets([animation.GetPath()])
 
+    if track.body is not None:
+        _add_body(stage, f"{path}/body", track.body, skeleton)
+        return
     UsdGeom.Xform.Define(stage, f"{path}/meshes")
     for index, (role, shapes) in enumerate(zip(track.roles, track.shapes)):
         if shapes:
             mesh = shapes_mesh(shapes).translated(track.rest_start[index])
             _bind_rigidly(_add_mesh(stage, f"{path}/meshes/{role}", mesh), skeleton, index)
+
+
+def _add_body(stage: Usd.Stage, path: str, body: BodyMesh, skeleton: UsdSkel.Skeleton) -> None:
+    """The animal's body: one mesh, smoothly skinned (per-vertex joints and weights)."""
+    from pxr import Gf, UsdSkel, Vt
+
+    mesh = _add_mesh(stage, path, TriangleMesh(body.vertices, body.normals, body.colors, body.faces))
+    binding = UsdSkel.BindingAPI.Apply(mesh.GetPrim())
+    binding.CreateSkeletonRel().SetTargets([skeleton.GetPath()])
+    influences = body.joints.shape[1]
+    binding.CreateJointIndicesPrimvar(False, influences).Set(
+        Vt.IntArray.FromNumpy(body.joints.reshape(-1).astype(np.int32))
+    )
+    binding.CreateJointWeightsPrimvar(False, influences).Set(
+        Vt.FloatArray.FromNumpy(body.weights.reshape(-1).astype(np.float32))
+    )
+    binding.CreateGeomBindTransformAttr(Gf.Matrix4d(1.0))
 
 
 def _bind_rigidly(mesh: UsdGeom.Mesh, skeleton: UsdSkel.Skeleton, joint: int) -> None:

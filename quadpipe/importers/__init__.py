@@ -18,6 +18,7 @@ from quadpipe.anatomy.rolemap import resolve_roles, write_role_map
 from quadpipe.anatomy.skeleton import RawSkeleton, Skeleton, assemble, check_coordinates
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.formats import FileFormat, FormatTable
+from quadpipe.core.textfiles import missing_file
 
 SKELETON_FORMATS = FormatTable(
     (
@@ -55,7 +56,7 @@ def _reader_for(path: Path, formats: FormatTable, what: str) -> Callable:
             hint=f"supported: {', '.join(sorted(formats))}",
         )
     if not path.is_file():
-        raise QuadpipeError.single("file-not-found", f"{what} file {str(path)!r} does not exist", file=str(path))
+        raise QuadpipeError([missing_file(path, what, suffixes=formats)])
     return fmt.load(path)
 
 

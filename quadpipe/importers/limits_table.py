@@ -45,7 +45,14 @@ def read_limits(path: str | Path) -> JointLimits:
         if cells and any(c.strip() for c in cells) and not cells[0].lstrip().startswith("#")
     ]
     if not rows:
-        raise QuadpipeError.single("empty-table", "the limits table has no rows", file=source)
+        raise QuadpipeError.single(
+            "empty-table",
+            "the limits table has no rows",
+            file=source,
+            line=1,
+            column=1,
+            hint=f"a limits table is a header line naming the columns {' '.join(COLUMNS)}, then one row per bone",
+        )
     header_line, header = rows[0]
     columns = [_normalise(h) for h in header]
     missing = [c for c in COLUMNS if c not in columns]
@@ -69,10 +76,29 @@ def read_limits(path: str | Path) -> JointLimits:
                 "duplicate-row", f"bone {bone!r} has two rows (first at line {first_lines[bone]})", where=where
             )
         check_row_key(bone, where)
+        _check_row_length(cells, index, where)
         twist_min, twist_max, swing1, swing2 = (_number(cells, index[c], c, source, line, bone) for c in COLUMNS[1:])
         limits[bone] = from_degrees(twist_min, twist_max, swing1, swing2, where=where)
         first_lines[bone] = line
     return JointLimits(limits, source)
+
+
+def _check_row_length(cells: list[str], index: dict[str, int], where: Location) -> None:
+    """A row must reach every column of the header.
+
+    Raises:
+        QuadpipeError: `short-row`, naming the columns the row has and those it lacks.
+    """
+    lacking = [name for name in COLUMNS if index[name] >= len(cells)]
+    if lacking:
+        having = [name for name in COLUMNS if name not in lacking]
+        raise QuadpipeError.single(
+            "short-row",
+            f"the row has {len(cells)} cell{'s' if len(cells) != 1 else ''} ({', '.join(having) or 'none'}) "
+            f"and lacks {', '.join(lacking)}",
+            where=where,
+            hint=f"give every row the header's columns: {' '.join(COLUMNS)}",
+        )
 
 
 def _number(cells: list[str], column: int, name: str, source: str, line: int, bone: str) -> float:

@@ -22,7 +22,7 @@ import numpy as np
 
 from quadpipe.animals import sizing
 from quadpipe.core import configs
-from quadpipe.core.errors import QuadpipeError
+from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.preview.base import ActionHandler, Preview, ignoring_eye
 from quadpipe.preview.clock import Clock
 from quadpipe.preview.overlays import (
@@ -127,6 +127,7 @@ class LivePreview(Preview):
         controller: controller name or YAML path.
         scene: scene name or YAML path (None: `flat`).
         parameters: controller parameter overrides (values as written in YAML).
+        places: where each of `parameters` was given (`--set ...`), for messages.
         pool_size: throwable bodies of each kind.
 
     Raises:
@@ -142,6 +143,7 @@ class LivePreview(Preview):
         controller: str,
         scene: str | None = None,
         parameters: Mapping[str, str] | None = None,
+        places: Mapping[str, Location] | None = None,
         pool_size: int = POOL_SIZE,
     ):
         from quadpipe.animals.library import load_animal
@@ -151,6 +153,7 @@ class LivePreview(Preview):
 
         self.controller = controller
         self.overrides: dict[str, str] = dict(parameters or {})
+        self.places = dict(places or {})
         self.goal_overrides: dict[str, str] = {}
         self.reload_error: str | None = None
         self.blow_up: str | None = None
@@ -194,7 +197,7 @@ class LivePreview(Preview):
             QuadpipeError: the files do not validate, or an override does not fit them.
         """
         given = {name: value for name, value in self.overrides.items() if name not in self.goal_overrides}
-        return world.sim.compile_controller(self.controller, given, goals=self.goal_overrides)
+        return world.sim.compile_controller(self.controller, given, goals=self.goal_overrides, places=self.places)
 
     @staticmethod
     def _steps_per_frame(model: mujoco.MjModel) -> int:

@@ -117,6 +117,8 @@ class _Checker:
             return Expr("var", Type(SCALAR, units.TIME), value=TIME_VARIABLE)
         if name in CONSTANTS:
             return Expr("num", NUMBER, value=CONSTANTS[name])
+        if name.lower() in NON_FINITE_WORDS:  # a number Python's float() reads: refused as one
+            return Expr("num", NUMBER, value=finite_number(name, self.text))
         if name in units.UNITS:
             return Expr("unit", Type(SCALAR, units.UNITS[name].dim), value=name)
         if name in PARENT:
@@ -415,6 +417,10 @@ def check(value: Any, namespace: Namespace) -> Expr:
         raise limit_error(MAX_EXPRESSION_DEPTH, depth)
     refuse_bad_constants(node, value)
     return Expr(node.op, node.type, node.args, node.value, text=value)
+
+
+NON_FINITE_WORDS = frozenset({"nan", "inf", "infinity"})
+"""Names that read as numbers which are not finite (`--set froude=nan`, `inf * m/s`)."""
 
 
 def finite_number(value: Any, text: str) -> float:

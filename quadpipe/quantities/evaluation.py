@@ -76,18 +76,30 @@ def _lift(value: np.ndarray, typ: Type) -> np.ndarray:
     return value[..., None] if typ.kind == SCALAR else value
 
 
-def _build(expr: Expr, scale: units.Scale) -> Callable[[Env], np.ndarray]:
+_Built = dict[int, Callable[[Env], np.ndarray]]
+"""Nodes already built in one compilation, by `id`: a parameter used twice is one shared node
+(`p2: p1 + p1`), so a chain of them is built (and its constants folded) once per node, not
+once per path through it."""
+
+
+def _build(expr: Expr, scale: units.Scale, built: _Built) -> Callable[[Env], np.ndarray]:
+    if id(expr) not in built:
+        built[id(expr)] = _build_unshared(expr, scale, built)
+    return built[id(expr)]
+
+
+def _build_unshared(expr: Expr, scale: units.Scale, built: _Built) -> Callable[[Env], np.ndarray]:
     n = scale.n
     if not expr.needs:
-        value = _build_node(expr, scale, n)({})
+        value = _build_node(expr, scale, n, built)({})
         fixed = np.broadcast_to(
             np.asarray(value, dtype=bool if expr.type.kind == BOOL else float), _shape(expr.type, n)
         )
         return lambda env: fixed
-    return _build_node(expr, scale, n)
+    return _build_node(expr, scale, n, built)
 
 
-def _build_node(expr: Expr, scale: units.Scale, n: int) -> Callable[[Env], np.ndarray]:
+def _build_node(expr: Expr, scale: units.Scale, n: int, built: _Built) -> Callable[[Env], np.ndarray]:
     op = expr.op
     if op == "num":
         value = np.full(n, expr.value)
@@ -97,7 +109,7 @@ def _build_node(expr: Expr, scale: units.Scale, n: int) -> Callable[[Env], np.nd
         return lambda env: unit_value
     if op == "var":
         return _build_var(expr, scale, n)
-    args = [_build(arg, scale) for arg in expr.args]
+    args = [_build(arg, scale, built) for arg in expr.args]
     types = [arg.type for arg in expr.args]
     if op == "call":
         return _build_call(expr, args, types, scale)
@@ -192,6 +204,6 @@ _OPERATORS: dict[str, Callable[..., Callable[[Env], np.ndarray]]] = {
 
 def compile_expr(expr: Expr, scale: units.Scale) -> Compiled:
     """Compile a checked expression for the animals of `scale`."""
-    fn = _build(expr, scale)
+    fn = _build(expr, scale, {})
     constant = np.asarray(fn({})) if not expr.needs else None
     return Compiled(expr.type, expr.needs, fn, constant, expr.text, expr)

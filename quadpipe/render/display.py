@@ -5,7 +5,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from quadpipe.clip.model import Clip, Shape
+import numpy as np
+
+from quadpipe.clip.model import BodyMesh, Clip, Shape
 from quadpipe.render.camera import FOVY_DEG
 from quadpipe.render.poses import clip_scale
 
@@ -81,7 +83,9 @@ def display_spec(clip: Clip, width: int, height: int, multisamples: int = VIDEO_
     spec.add_material(name="checker", textures=["", "checker"], texrepeat=[repeat, repeat], texuniform=True)
     for track in clip.animals:
         for role, shapes in zip(track.roles, track.shapes):
-            _add_mocap_body(spec, f"{track.name}/{role}", shapes)
+            _add_mocap_body(spec, f"{track.name}/{role}", shapes if track.body is None else ())
+        if track.body is not None:
+            _add_skin(spec, track.name, track.roles, track.rest_start, track.body)
     for prop in clip.props:
         _add_mocap_body(spec, f"prop/{prop.name}", [prop.shape])
     for shape in clip.terrain:
@@ -117,6 +121,25 @@ def _add_mocap_body(spec: mujoco.MjSpec, name: str, shapes: Sequence[Shape]) -> 
     body = spec.worldbody.add_body(name=name, mocap=True)
     for shape in shapes:
         _add_geom(body, shape)
+
+
+def _add_skin(spec: mujoco.MjSpec, animal: str, roles: Sequence[str], rest_start: np.ndarray, body: BodyMesh) -> None:
+    """An animal's body mesh as a MuJoCo skin on its bone bodies (bound at their rest poses)."""
+    skin = spec.add_skin(name=f"{animal}/body")
+    skin.vert = body.vertices.astype(np.float32).reshape(-1).tolist()
+    skin.face = body.faces.astype(np.int32).reshape(-1).tolist()
+    skin.rgba = list(body.colors[0])
+    bones = np.unique(body.joints[body.weights > 0])
+    skin.bodyname = [f"{animal}/{roles[b]}" for b in bones]
+    skin.bindpos = rest_start[bones].reshape(-1).tolist()
+    skin.bindquat = np.tile([1.0, 0.0, 0.0, 0.0], len(bones)).tolist()
+    vertex_ids, vertex_weights = [], []
+    for bone in bones:
+        rows, columns = np.nonzero((body.joints == bone) & (body.weights > 0))
+        vertex_ids.append(rows.tolist())
+        vertex_weights.append(body.weights[rows, columns].tolist())
+    skin.vertid = vertex_ids
+    skin.vertweight = vertex_weights
 
 
 def _add_geom(body: mujoco.MjsBody, shape: Shape, material: str | None = None) -> None:

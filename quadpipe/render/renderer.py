@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from quadpipe.bodies import Look, dress
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.render.camera import Camera, camera_views
@@ -45,6 +46,8 @@ class ClipRenderer:
         camera: how to frame the clip.
         overlays: decorations to draw; None: the built-in `DEFAULT_OVERLAYS`.
         multisamples: anti-aliasing samples per pixel.
+        look: draw each animal's skinned body (`body`, built unless the clip carries one) or
+            its bone shapes (`bones`); see `quadpipe.bodies`.
 
     Raises:
         QuadpipeError: `empty-clip`, `no-animal`, `no-finite-frame`, `bad-size`,
@@ -61,10 +64,12 @@ class ClipRenderer:
         camera: Camera = Camera(),
         overlays: Sequence[Overlay] | None = None,
         multisamples: int = VIDEO_MULTISAMPLES,
+        look: Look = "body",
     ):
         import mujoco
 
         check_clip(clip)
+        clip = dress(clip, look)
         check_size(width, height)
         self.clip, self.width, self.height = clip, width, height
         self.overlays = builtin_overlays(clip) if overlays is None else list(overlays)
@@ -78,7 +83,8 @@ class ClipRenderer:
         self._gl: GLContext | None = open_gl_context(width, height)
         self._mjr = mujoco.MjrContext(self.model, FONT_SCALE)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._mjr)
-        capacity = self.model.ngeom + sum(overlay.starts.shape[1] for overlay in self.overlays)
+        # every geom, every skin (each drawn as one scene geom) and every overlay item
+        capacity = self.model.ngeom + self.model.nskin + sum(overlay.starts.shape[1] for overlay in self.overlays)
         self.scene = mujoco.MjvScene(self.model, maxgeom=capacity)
         self._option = mujoco.MjvOption()
         self._camera = mujoco.MjvCamera()
@@ -185,6 +191,7 @@ def render_frames(
     fps: float | None = None,
     camera: Camera = Camera(),
     overlays: Sequence[Overlay] | None = None,
+    look: Look = "body",
 ) -> Iterator[np.ndarray]:
     """The rendered frames of a clip, one (height, width, 3) uint8 array at a time.
 
@@ -195,9 +202,10 @@ def render_frames(
             frame is shown at each output time.
         camera: how to frame the clip.
         overlays: decorations; None: the built-in `DEFAULT_OVERLAYS`.
+        look: the animals' skinned bodies (`body`) or their bones (`bones`).
     """
     frames = output_frames(clip, fps)
-    with ClipRenderer(clip, width=width, height=height, camera=camera, overlays=overlays) as renderer:
+    with ClipRenderer(clip, width=width, height=height, camera=camera, overlays=overlays, look=look) as renderer:
         for frame in frames:
             yield renderer.render(int(frame))
 
@@ -209,12 +217,13 @@ def render_fps(
     width: int = DEFAULT_WIDTH,
     height: int = DEFAULT_HEIGHT,
     overlays: Sequence[Overlay] | None = None,
+    look: Look = "body",
 ) -> float:
     """Frames per second of rendering (scene update, draw, read back), model building excluded.
 
     Renders `frames` frames, cycling through the clip, after one warm-up frame.
     """
-    with ClipRenderer(clip, width=width, height=height, overlays=overlays) as renderer:
+    with ClipRenderer(clip, width=width, height=height, overlays=overlays, look=look) as renderer:
         renderer.render(0)
         start = time.perf_counter()
         for index in range(frames):

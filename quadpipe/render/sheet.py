@@ -7,6 +7,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from quadpipe.bodies import Look
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.render.camera import Camera
@@ -52,6 +53,7 @@ def contact_sheet(
     camera: Camera = Camera(),
     overlays: Sequence[Overlay] | None = None,
     grid: tuple[int, int] = SHEET_GRID,
+    look: Look = "body",
 ) -> np.ndarray:
     """A grid of evenly spaced frames, row by row, each stamped `t = 1.23 s`, as an RGB array.
 
@@ -67,7 +69,7 @@ def contact_sheet(
     rows = math.ceil(len(frames) / columns)
     sheet = np.zeros((rows * height, columns * width, 3), dtype=np.uint8)
     with ClipRenderer(
-        clip, width=width, height=height, camera=camera, overlays=overlays, multisamples=SHEET_MULTISAMPLES
+        clip, width=width, height=height, camera=camera, overlays=overlays, multisamples=SHEET_MULTISAMPLES, look=look
     ) as renderer:
         for tile, frame in enumerate(frames):
             row, column = divmod(tile, columns)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from quadpipe.bodies import Look
 from quadpipe.clip.model import Clip
 from quadpipe.core.atomic import atomic_path
 from quadpipe.core.errors import QuadpipeError
@@ -48,6 +49,7 @@ def render_clip(
     camera: Camera = Camera(),
     overlays: Sequence[Overlay] | None = None,
     grid: tuple[int, int] = SHEET_GRID,
+    look: Look = "body",
 ) -> None:
     """Render a clip to a video (`.mp4`, `.gif`) or a contact sheet (`.png`), atomically.
 
@@ -59,6 +61,7 @@ def render_clip(
         camera: how to frame the clip.
         overlays: decorations; None: the built-in `DEFAULT_OVERLAYS` (pass [] for none).
         grid: contact sheet columns and rows.
+        look: draw the animals' skinned bodies (`body`) or their bones (`bones`).
 
     Raises:
         QuadpipeError: `unknown-format`, `format-unavailable`, `unwritable-output`, `bad-size`, `bad-fps`,
@@ -68,7 +71,7 @@ def render_clip(
     path = Path(output_path)
     suffix = path.suffix.lower()
     writer = render_format(path).load(path)
-    options = RenderOptions(width, height, fps, camera, overlays, grid)
+    options = RenderOptions(width, height, fps, camera, overlays, grid, look)
     options.check(clip, suffix)
     with atomic_path(path, suffix=suffix) as temporary:
         writer(clip, temporary, options)
@@ -101,6 +104,7 @@ class RenderOptions:
     camera: Camera
     overlays: Sequence[Overlay] | None
     grid: tuple[int, int]
+    look: Look = "body"
 
     def check(self, clip: Clip, suffix: str) -> None:
         """Reject settings the format cannot take, before any file is made."""
@@ -122,7 +126,13 @@ class RenderOptions:
     def frames(self, clip: Clip) -> Iterator[np.ndarray]:
         """The rendered output frames."""
         return render_frames(
-            clip, width=self.width, height=self.height, fps=self.fps, camera=self.camera, overlays=self.overlays
+            clip,
+            width=self.width,
+            height=self.height,
+            fps=self.fps,
+            camera=self.camera,
+            overlays=self.overlays,
+            look=self.look,
         )
 
     def frame_rate(self, clip: Clip) -> float:
@@ -178,5 +188,6 @@ def write_sheet(clip: Clip, path: Path, options: RenderOptions) -> None:
         camera=options.camera,
         overlays=options.overlays,
         grid=options.grid,
+        look=options.look,
     )
     Image.fromarray(sheet).save(path, format="PNG")

@@ -21,7 +21,7 @@ import numpy as np
 
 from quadpipe.animals import sizing
 from quadpipe.clip.model import Clip
-from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.limits import FAR_AWAY_HP, check_run
 from quadpipe.sim import health as physics
 from quadpipe.sim.metrics import clip_metrics
@@ -104,6 +104,7 @@ class Simulation:
         events: the scene's events (props set moving, throws), run before every physics step.
         controllers: run before every physics step, in order: the runtime, then the extra ones.
         far_m: a body farther than this from the origin has been flung away (a blow-up).
+        warnings: what the run's inputs warn of, once each (a gait the species does not use).
     """
 
     def __init__(
@@ -113,7 +114,9 @@ class Simulation:
         self.setup = setup
         self.model = setup.spec.compile()
         self.data = mujoco.MjData(self.model)
+        self._applied = (self.data.xfrc_applied, self.data.qfrc_applied)  # views made once: cheaper to clear
         self.metadata = dict(metadata or {})
+        self.warnings: list[Issue] = []
         self.extra_controllers = list(extra_controllers)
         self.runtime: ControllerRuntime | None = None
         self.controllers: list[Controller] = list(self.extra_controllers)
@@ -188,7 +191,22 @@ class Simulation:
         from quadpipe.controllers.runtime.runtime import compile_for
 
         offered = self.setup.goal_parameters | dict(goals or {})
-        return compile_for(controller, self.placements, parameters, scene_parameters=offered, places=places)
+        places = self.setup.goal_places() | dict(places or {})
+        compiled = compile_for(controller, self.placements, parameters, scene_parameters=offered, places=places)
+        self._warn_of_gaits(compiled[0].name)
+        return compiled
+
+    def _warn_of_gaits(self, controller: str) -> None:
+        """Keep a warning, once per species, when `controller` is a gait the species does not
+        use (`gait_warning`): in `warnings` and in the clips' metadata."""
+        from quadpipe.animals.library import gait_warning
+
+        for placement in self.placements:
+            issue = gait_warning(placement.built.animal, controller)
+            if issue is not None and issue not in self.warnings:
+                self.warnings.append(issue)
+        if self.warnings:
+            self.metadata["warnings"] = "\n".join(issue.message for issue in self.warnings)
 
     @overload
     def use_controller(self, compiled: CompiledController, *, carry_over: bool = False) -> ControllerRuntime: ...
@@ -238,8 +256,8 @@ class Simulation:
         for event in self.events:
             event(self.model, self.data)
         mujoco.mj_step1(self.model, self.data)
-        self.data.xfrc_applied[:] = 0.0
-        self.data.qfrc_applied[:] = 0.0
+        for applied in self._applied:
+            applied.fill(0.0)
         for controller in self.controllers:
             controller.apply(self.model, self.data)
         mujoco.mj_step2(self.model, self.data)
@@ -315,11 +333,13 @@ class Simulation:
 
 @dataclass
 class Result:
-    """A finished simulation: the clip, its metrics, and the runtime (for inspection in tests)."""
+    """A finished simulation: the clip, its metrics, the runtime (for inspection in tests) and
+    what its inputs warned of (also in the metrics' and the clip metadata's `warnings`)."""
 
     clip: Clip
     metrics: dict
     runtime: ControllerRuntime | None
+    warnings: tuple[Issue, ...] = ()
 
 
 def simulate(
@@ -357,4 +377,7 @@ def simulate(
         animal, controller, scene=scene, parameters=parameters, extra_controllers=extra_controllers, places=places
     )
     clip = simulation.record(seconds, on_frame=on_frame, fps=fps)
-    return Result(clip, clip_metrics(clip), simulation.runtime)
+    metrics = clip_metrics(clip)
+    if simulation.warnings:
+        metrics["warnings"] = [issue.message for issue in simulation.warnings]
+    return Result(clip, metrics, simulation.runtime, tuple(simulation.warnings))

@@ -12,7 +12,7 @@ import numpy as np
 
 from quadpipe.animals import sizing
 from quadpipe.animals.model import BuiltAnimal
-from quadpipe.core.errors import QuadpipeError
+from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities import units
 from quadpipe.world.format import AnimalGrid, Ground
 from quadpipe.world.goals import goal_text
@@ -48,6 +48,10 @@ class SceneSetup:
     goal_parameters: dict[str, str]
     throws: list[ThrowPlan] = field(default_factory=list)
     prop_velocities: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def goal_places(self) -> dict[str, Location]:
+        """Where each goal is written in the scene file, for messages about the parameter it sets."""
+        return {name: self.scene.locate(("goals", name)) for name in self.goal_parameters}
 
     def events(self, model: mujoco.MjModel) -> list[Callable[[mujoco.MjModel, mujoco.MjData], None]]:
         """The scene's events for a model compiled from `spec`: props set moving, then the throws.

@@ -10,7 +10,7 @@ reach) are checked when the scene is built (`quadpipe.world.values`).
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +20,7 @@ from pydantic import BaseModel
 from quadpipe.core import configs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.limits import MAX_ANIMALS, MAX_PROPS, MAX_TERRAIN_PIECES, MAX_THROWS, Limit
+from quadpipe.core.textfiles import missing_file
 from quadpipe.core.yamlio import YamlDocument, dotted, kind_of_value, load_yaml, located_issues
 from quadpipe.quantities.expressions import ExprError, Namespace, check_expected, resolve_point_name
 from quadpipe.world.format import (
@@ -79,7 +80,7 @@ def load_scene(name_or_path: str | Path) -> SceneSpec:
             problem found in it, each at its file:line:col.
     """
     path = configs.find_config(SCENE_KIND, name_or_path)
-    doc = load_yaml(path)
+    doc = load_yaml(path, "scene", SceneFile)
     return SceneSpec(parse_scene(doc), doc)
 
 
@@ -333,17 +334,10 @@ def animal_hint(names: list[str]) -> str:
 def _species_issues(species: str, path: tuple[Any, ...], doc: YamlDocument) -> list[Issue]:
     if is_path(species):
         file = Path(doc.file).parent / species
-        return (
-            []
-            if file.is_file()
-            else [
-                Issue(
-                    "file-not-found",
-                    f"animal file {species!r} does not exist (relative to this scene)",
-                    doc.locate(path),
-                )
-            ]
-        )
+        if file.is_file():
+            return []
+        issue = missing_file(file, "animal", name=species, where=doc.locate(path), suffixes=(".yaml", ".yml"))
+        return [replace(issue, message=f"{issue.message} (relative to this scene)")]
     known = configs.available("animals")
     return (
         []

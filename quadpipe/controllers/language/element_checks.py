@@ -248,7 +248,7 @@ class ElementChecks:
 
     def _nonzero(self, value: Any, where: Location, namespace: expressions.Namespace) -> None:
         vector = self._constant_vector(value, namespace)
-        if vector is not None and not np.linalg.norm(vector) > 0:
+        if vector is not None and not np.abs(vector).max(initial=0.0) > 0:  # a norm overflows at 1e308
             self.error(
                 "zero-vector", f"the vector {value!r} has no direction", where, "give at least one non-zero component"
             )

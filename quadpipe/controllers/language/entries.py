@@ -137,6 +137,8 @@ class ParameterEntry:
     Attributes:
         tunable: whether it comes from `tunables:`; then `low` and `high` are its range
             (None only where a file left one out and no parent gave it, which is reported).
+        replaces: the entry of that name in the controller this one extends, if any: its
+            value is what the parent's formulas and elements were written for.
     """
 
     value: Any
@@ -146,6 +148,12 @@ class ParameterEntry:
     tunable: bool = False
     low: Bound | None = None
     high: Bound | None = None
+    replaces: ParameterEntry | None = None
+
+    @property
+    def first(self) -> ParameterEntry:
+        """The entry of this name in the first controller of the `extends` chain that wrote it."""
+        return self if self.replaces is None else self.replaces.first
 
 
 @dataclass

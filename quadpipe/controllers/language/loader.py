@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Iterable, Mapping
+from dataclasses import replace
 from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,8 @@ from quadpipe.controllers.language.templates import (
 )
 from quadpipe.core import configs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
-from quadpipe.core.yamlio import YamlDocument, field_names_at, kind_of_value, load_yaml
+from quadpipe.core.textfiles import missing_file
+from quadpipe.core.yamlio import YamlDocument, field_names_at, kind_of_value, load_yaml, plain_message
 from quadpipe.core.yamlio import unwrap_annotation as unwrap_annotation  # re-exported
 
 CONTROLLER_KIND = "controllers"
@@ -82,12 +84,12 @@ def pydantic_issues(
                 Issue("missing-key", f"required key {loc[-1]!r} is missing in {where}", locate(loc[:-1], False))
             )
         elif loc and loc[-1] == "[key]":
-            message = err["msg"].removeprefix("Value error, ")
+            message = plain_message(err)
             issues.append(
                 Issue("invalid-value", f"a key in {_where_in(label, loc[:-2])}: {message}", locate(loc[:-1], True))
             )
         else:
-            message = err["msg"].removeprefix("Value error, ")
+            message = plain_message(err)
             issues.append(Issue("invalid-value", f"{_where_in(label, loc)}: {message}", locate(loc, False)))
     return issues
 
@@ -124,7 +126,7 @@ _UNQUOTED_PLACEHOLDER = re.compile(r"(:|-)\s+\{leg\}")
 
 def _read_yaml(path: Path, issues: list[Issue]) -> YamlDocument | None:
     try:
-        return load_yaml(path)
+        return load_yaml(path, "controller", ControllerFile)
     except QuadpipeError as exc:
         issues.extend(_with_placeholder_hint(issue, path) for issue in exc.issues)
         return None
@@ -276,14 +278,16 @@ def _find_parent(text: str, child: Path, where: Location, issues: list[Issue]) -
         candidate = (child.parent / text).resolve()
         if candidate.is_file():
             return candidate
-        issues.append(
-            Issue(
-                "file-not-found",
-                f"extends {text!r}, but there is no such file",
-                where,
-                "a path is relative to this file; a bare name is a built-in controller",
-            )
+        issue = missing_file(
+            candidate,
+            "controller",
+            name=text,
+            where=where,
+            suffixes=(".yaml", ".yml"),
+            hint="a path is relative to this file; a bare name is a built-in controller",
         )
+        problem = "which is a folder, not a file" if issue.code == "is-a-folder" else "but there is no such file"
+        issues.append(replace(issue, message=f"extends {text!r}, {problem}"))
         return None
     try:
         return configs.find_config(CONTROLLER_KIND, text).resolve()
@@ -344,7 +348,8 @@ def _own_parameters(
                         )
                     )
                     continue
-                entries[name] = _completed(name, entry, inherited.get(name), issues) if entry.tunable else entry
+                completed = _completed(name, entry, inherited.get(name), issues) if entry.tunable else entry
+                entries[name] = replace(completed, replaces=inherited.get(name))
     return entries
 
 

@@ -69,6 +69,7 @@ class _Analysis(MachineChecks):
     def type_parameters(self) -> ParameterTyping:
         values = {name: entry.value for name, entry in self.merged.parameters.items()}
         typing_ = type_parameters(values, self.sensors, self.cycles)
+        self._check_replaced(typing_)
         for name, exc in typing_.errors.items():
             if not expressions.referenced_names(values[name]) & self.clashing:
                 self.error(exc.code, exc.message, self.merged.parameters[name].where, exc.hint)
@@ -89,6 +90,45 @@ class _Analysis(MachineChecks):
         for name in known:
             self._compare_override(name, typing_, changed)
         return changed
+
+    def _check_replaced(self, typing_: ParameterTyping) -> None:
+        """Report a parameter a child controller gives another type than its parent, where the child says so.
+
+        The parent's formulas and elements were written for the parent's type, so the
+        parameters using the changed one (and their uses) are not checked again: the problem
+        is the child's value.
+        """
+        parameters = self.merged.parameters
+        replaced = {name for name, entry in parameters.items() if entry.replaces is not None}
+        if not replaced:
+            return
+        first = type_parameters(
+            {name: entry.first.value for name, entry in parameters.items()}, self.sensors, self.cycles
+        )
+        changed = set()
+        for name in sorted(replaced & set(first.exprs) & set(typing_.exprs)):
+            old, new = first.exprs[name].type, typing_.exprs[name].type
+            if old != new:
+                self._report_replaced(name, old, new, first)
+                changed.add(name)
+        if changed:
+            self.clashing |= {name for name in parameters if typing_.closure({name}) & changed}
+
+    def _report_replaced(self, name: str, old: expressions.Type, new: expressions.Type, first: ParameterTyping) -> None:
+        entry = self.merged.parameters[name]
+        written = entry.first
+        what = "tunable" if entry.tunable else "parameter"
+        users = sorted(
+            (self.merged.parameters[user].where for user, deps in first.deps.items() if name in deps),
+            key=lambda where: (where.line or 0, where.column or 0),
+        )
+        used = f"; its formulas use it so, e.g. at {_short(users[0])}" if users else ""
+        self.error(
+            "wrong-dimension" if old.kind == new.kind else "wrong-type",
+            f"{what} {name!r} is {new.describe()} here, but {Path(written.file).name} makes it {old.describe()}",
+            entry.where,
+            f"give {old.describe()}, as {_short(written.where)} does{used}",
+        )
 
     def _compare_override(self, name: str, before: ParameterTyping, after: ParameterTyping) -> None:
         where = self.override_where(name)
@@ -216,10 +256,17 @@ class _Analysis(MachineChecks):
         except expressions.ExprError as exc:
             self.error(exc.code, exc.message, bound.where, exc.hint)
             return None
-        if not expr.is_constant or (expr.type != typ and not _plain_zero(expr)):
+        if expr.type != typ and not _plain_zero(expr):
             self.error(
                 "wrong-dimension",
-                f"the {end} of tunable {name!r} must be a constant {typ.describe()}, like its value, got {expr.type.describe()}",
+                f"the {end} of tunable {name!r} must be {typ.describe()}, like its value, not {expr.type.describe()}",
+                bound.where,
+            )
+            return None
+        if not expr.is_constant:
+            self.error(
+                "tunable-not-constant",
+                f"the {end} of tunable {name!r} must be a constant, not a value that changes during the simulation",
                 bound.where,
             )
             return None
@@ -257,6 +304,11 @@ class _Analysis(MachineChecks):
                     entry.origin.locate(("name",)),
                     "use it in an expression by its name, or remove it",
                 )
+
+
+def _short(where: Location) -> str:
+    """A location in a hint: the file's name (a built-in controller's full path says nothing more)."""
+    return str(Location(Path(where.file).name if where.file else None, where.line, where.column))
 
 
 def _plain_zero(expr: expressions.Expr) -> bool:

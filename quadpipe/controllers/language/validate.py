@@ -32,6 +32,8 @@ ISSUE_CODES: dict[str, str] = codes.meanings(
         "duplicate-key",
         "file-unreadable",
         "file-not-found",
+        "is-a-folder",
+        "empty-file",
         "unknown-controller",
         "extends-cycle",
         "unknown-key",

@@ -29,6 +29,8 @@ from collections.abc import Mapping, Sequence
 import numba
 import numpy as np
 
+from quadpipe.controllers.runtime.mjlib import mj_ray
+
 ZERO_NORM = 1e-12
 """Vectors shorter than this have no direction (as in `expressions.ZERO_NORM`)."""
 
@@ -46,28 +48,20 @@ LEG_DUTY_MARGIN = 1e-6
 
 LEG_COUNT = 4
 
+WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
+"""Geom groups a ground ray may hit: group 0 only (terrain and props; bones are in
+`quadpipe.animals.model.ANIMAL_GEOM_GROUP`)."""
+
+DOWN = -np.array([0.0, 0.0, 1.0])
+"""Direction of a ground ray."""
+
 VECTOR_RESULT, VECTOR_A, VECTOR_B, VECTOR_C = 1, 2, 4, 8
 """the vector flags of an elementwise op (its `e`): the result, operand a, b, c are vectors."""
 
 # Opcodes. Arithmetic (dst, a, b, c are registers), elementwise (see `VECTOR_RESULT`).
 ADD, SUB, MUL, DIV, POW, MIN, MAX, ATAN2 = 1, 2, 3, 4, 5, 6, 7, 8
 LT, LE, GT, GE, AND, OR, STEP = 9, 10, 11, 12, 13, 14, 15
-NEG, NOT, SIN, COS, TAN, ASIN, ACOS, ATAN, SQRT, EXP, LOG, ABS, SIGN, WRAP = (
-    16,
-    17,
-    18,
-    19,
-    20,
-    21,
-    22,
-    23,
-    24,
-    25,
-    26,
-    27,
-    28,
-    29,
-)
+NEG, NOT, SIN, COS, TAN, ASIN, ACOS, ATAN, SQRT, EXP, LOG, ABS, SIGN, WRAP = range(16, 30)
 CLAMP, SMOOTHSTEP, MIX, SELECT, LEG_SWEEP, LEG_LIFT = 30, 31, 32, 33, 34, 35
 # Vector ops (dst, a, b are registers; COMP's b is the component index).
 VEC, COMP, NORM, NORMALIZE, DOT, CROSS, ANGLE, HORIZONTAL = 40, 41, 42, 43, 44, 45, 46, 47
@@ -75,8 +69,8 @@ VEC, COMP, NORM, NORMALIZE, DOT, CROSS, ANGLE, HORIZONTAL = 40, 41, 42, 43, 44, 
 HEADING, BODYROT = 50, 51
 # Simulation reads: POINT/VELOCITY(dst, a = row of `point_body`); CONTACT(dst, a = leg);
 # PHASE(dst, a = cycle); TIS(dst, a = machine); TIME(dst); GROUND_NORMAL(dst, a = leg bits);
-# MASK(dst, a = machine, b = state).
-POINT, VELOCITY, CONTACT, PHASE, TIS, TIME, GROUND_NORMAL, MASK = 60, 61, 62, 63, 64, 65, 66, 67
+# MASK(dst, a = machine, b = state); HEIGHT(dst, a = point register: its height above the ground).
+POINT, VELOCITY, CONTACT, PHASE, TIS, TIME, GROUND_NORMAL, MASK, HEIGHT = 60, 61, 62, 63, 64, 65, 66, 67, 68
 # Control: JUMP_IF_NONE(a = mask register, b = target); ZERO(dst).
 JUMP_IF_NONE, ZERO = 70, 71
 # State: SMOOTH(dst = sensor register, a = raw, b = time constant, c = sensor);
@@ -278,6 +272,17 @@ def _point(xpos: np.ndarray, xmat: np.ndarray, body: int, offset: np.ndarray, ou
 
 
 @numba.njit(cache=True)
+def _ground_height(model: int, data: int, point: np.ndarray) -> float:
+    """Height of `point` (3,), contiguous, above the world geom straight below it (terrain or
+    prop, static or not; no animal's bone); its z when there is none. `model` and `data` are
+    MuJoCo's, by address."""
+    distance: float = mj_ray(
+        model, data, point.ctypes.data, DOWN.ctypes.data, WORLD_GEOM_GROUPS.ctypes.data, 1, -1, 0, 0
+    )
+    return distance if distance >= 0.0 else point[2]
+
+
+@numba.njit(cache=True)
 def _contacts(
     ncon: int,
     geoms: np.ndarray,
@@ -339,7 +344,7 @@ def run(
     code: np.ndarray, reg: np.ndarray, integers: np.ndarray, integer_layout: np.ndarray,
     reals: np.ndarray, real_layout: np.ndarray, dt: float,
     xpos: np.ndarray, xmat: np.ndarray, xipos: np.ndarray, cvel: np.ndarray, subtree_com: np.ndarray,
-    qpos: np.ndarray, qfrc: np.ndarray, xfrc: np.ndarray, dof_damping: np.ndarray,
+    qpos: np.ndarray, qfrc: np.ndarray, xfrc: np.ndarray, dof_damping: np.ndarray, model: int, data: int,
     first: int, last: int, finish: bool, time: float, ncon: int,
     contact_geoms: np.ndarray, contact_frames: np.ndarray,
 ) -> int:  # fmt: skip
@@ -347,7 +352,8 @@ def run(
 
     `integers` and `reals` hold the runtime's tables and state (`INTEGER_ARRAYS` and
     `REAL_ARRAYS`, see `pack`); MuJoCo arrays are the data's and the model's own (forces are
-    added into `xfrc` and `qfrc`, damping written into `dof_damping`). The last seven
+    added into `xfrc` and `qfrc`, damping written into `dof_damping`); `model` and `data` are
+    their addresses, for MuJoCo's ray casts (`HEIGHT`). The last seven
     arguments change every call; `contact_geoms` and `contact_frames` have `ncon` rows (or
     more: the rest is ignored).
 
@@ -489,6 +495,9 @@ def run(
                     reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = x / length, y / length, z / length
                 else:
                     reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = 0.0, 0.0, 1.0
+        elif op == HEIGHT:
+            for i in range(n):
+                reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = _ground_height(model, data, reg[a, i])
         elif op == MASK:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = 1.0 if state[a, i] == b else 0.0

@@ -55,6 +55,7 @@ from quadpipe.controllers.runtime.kernel import (
     GROUND_NORMAL,
     GT,
     HEADING,
+    HEIGHT,
     HORIZONTAL,
     JUMP_IF_NONE,
     LE,
@@ -113,13 +114,13 @@ REDUCING_OPS: dict[str, int] = {"and": AND, "or": OR, "min": MIN, "max": MAX}
 
 VECTOR_RESULTS: dict[int, bool] = {
     VEC: True, NORMALIZE: True, CROSS: True, HORIZONTAL: True, HEADING: True, BODYROT: True,
-    COMP: False, NORM: False, DOT: False, ANGLE: False,
+    COMP: False, NORM: False, DOT: False, ANGLE: False, HEIGHT: False,
 }  # fmt: skip
 """Non-elementwise ops: whether their result is a vector."""
 
 OPERANDS: dict[int, int] = {
     **dict.fromkeys((NEG, NOT, SIN, COS, TAN, ASIN, ACOS, ATAN, SQRT, EXP, LOG, ABS, SIGN, WRAP), 1),
-    **dict.fromkeys((COMP, NORM, NORMALIZE, HORIZONTAL, HEADING, BODYROT), 1),
+    **dict.fromkeys((COMP, NORM, NORMALIZE, HORIZONTAL, HEADING, BODYROT, HEIGHT), 1),
     **dict.fromkeys((ADD, SUB, MUL, DIV, POW, MIN, MAX, ATAN2, LT, LE, GT, GE, AND, OR, STEP), 2),
     **dict.fromkeys((LEG_SWEEP, LEG_LIFT, DOT, CROSS, ANGLE), 2),
 }  # fmt: skip
@@ -147,8 +148,6 @@ class Program:
         springs: the joint roles of each spring instruction.
         slots: each force slot: (body point it acts at, element type that made it).
         sensors: sensor name -> (register, whether it is a vector).
-        heights: (register, point) of each `height` sensor's raw value, which the runtime
-            fills before the kernel runs (MuJoCo's ray cast is not callable from numba).
         cycles: cycle element names (row of the phase table).
         machines: machine name -> its state names (row of the state table).
         sensor_end: first instruction after the sensors (a run to there only refreshes them).
@@ -164,7 +163,6 @@ class Program:
     springs: list[tuple[str, ...]]
     slots: list[tuple[str, str]]
     sensors: dict[str, tuple[int, bool]]
-    heights: list[tuple[int, str]]
     cycles: list[str]
     machines: dict[str, list[str]]
     sensor_end: int
@@ -206,7 +204,6 @@ class _Lowerer:
         self.slot_elements: list[str] = []
         self.spring_elements: list[str] = []
         self.sensors: dict[str, tuple[int, bool]] = {}
-        self.heights: list[tuple[int, str]] = []
         self.cycles = [name for name, e in compiled.elements.items() if e.type == "cycle"]
         self.machines = {name: list(m.states) for name, m in compiled.machines.items()}
         self.owner = {element: name for name, m in compiled.machines.items() for element in m.owned}
@@ -296,9 +293,17 @@ class _Lowerer:
         if compiled.constant is not None:
             return self.typed_constant(compiled.constant, compiled.type)
         assert compiled.expr is not None, "a compiled value without a constant keeps its expression"
-        return self.expr(compiled.expr)
+        return self.expr(compiled.expr, {})
 
-    def expr(self, expr: Expr) -> int:
+    def expr(self, expr: Expr, lowered: dict[int, int]) -> int:
+        """The register of an expression node; `lowered` holds the nodes of this value already
+        lowered, by `id`: a parameter used twice is one shared node (`p2: p1 + p1`), lowered once
+        rather than once per path through it (2^n times down a chain of n)."""
+        if id(expr) not in lowered:
+            lowered[id(expr)] = self._lower_node(expr, lowered)
+        return lowered[id(expr)]
+
+    def _lower_node(self, expr: Expr, lowered: dict[int, int]) -> int:
         if not expr.needs:
             constant = compile_expr(expr, self.compiled.scale).constant
             assert constant is not None, "an expression that needs nothing compiles to a constant"
@@ -306,7 +311,7 @@ class _Lowerer:
         op = expr.op
         if op == "var":
             return self.variable(str(expr.value))
-        args = [self.expr(arg) for arg in expr.args]
+        args = [self.expr(arg, lowered) for arg in expr.args]
         if op in BINARY_OPS:
             return self.op(BINARY_OPS[op], *args)
         if op in REDUCING_OPS:
@@ -391,9 +396,7 @@ class _Lowerer:
             elif spec.kind == "velocity":
                 raw = self.velocity(at)
             else:
-                raw = self.new_register(vector=False)
-                self.heights.append((raw, at))
-                self.point_row(at)
+                raw = self.op(HEIGHT, self.point(at))
         register = self.sensors[element.name][0]
         self.emit(SMOOTH, register, raw, self.value(element.value("smoothing")), list(self.sensors).index(element.name))
         self.changed(f"sensor:{element.name}")
@@ -564,7 +567,7 @@ class _Lowerer:
         code = np.array(self.code, dtype=np.int64).reshape(-1, CODE_WIDTH)
         return Program(
             code, self.registers, self.constants, self.points, self.frames, self.springs, self.slots,
-            self.sensors, self.heights, self.cycles, self.machines, sensor_end,
+            self.sensors, self.cycles, self.machines, sensor_end,
             slot_elements=self.slot_elements, spring_elements=self.spring_elements,
         )  # fmt: skip
 

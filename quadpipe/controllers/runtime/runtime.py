@@ -30,25 +30,23 @@ import mujoco
 import numpy as np
 
 from quadpipe.anatomy.roles import FOOT_BONES, JOINT_AXES, LEGS, ROLES
+from quadpipe.animals.library import repertoire_parameters
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.runtime.kernel import HEADING_MIN_NORM, INTEGER_ARRAYS, NO_FAULT, REAL_ARRAYS, pack, run
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
-from quadpipe.core.errors import Location
+from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.world.placement import Placement
-
-WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
-"""Geom groups a ground ray may hit: group 0 only (terrain and props; bones are in
-`quadpipe.animals.model.ANIMAL_GEOM_GROUP`)."""
 
 UP = np.array([0.0, 0.0, 1.0])
 
 _FixedArguments = tuple[
     np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float,
     np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+    int, int,
 ]  # fmt: skip
-"""The first sixteen arguments of `kernel.run` (`code` to `dof_damping`), the same from step to step."""
+"""The first eighteen arguments of `kernel.run` (`code` to `data`), the same from step to step."""
 
 
 @dataclass
@@ -108,13 +106,6 @@ class ControllerRuntime:
         self._fixed_for: mujoco.MjData | None = None
         self._fixed: _FixedArguments  # set with `_fixed_for` by `_arguments`
         self._few_contacts = (np.zeros((1, 4), np.int32)[:, ::2], np.zeros((1, 18))[:, ::2])
-        heights = self.program.heights
-        self._height_registers = [register for register, _ in heights]
-        self._height_bodies = np.array([self._body_of(point) for _, point in heights], dtype=np.int64).reshape(
-            -1, self.n
-        )
-        self._height_offsets = np.array([self._offsets[point] for _, point in heights]).reshape(-1, self.n, 3)
-        self._ray_hit = np.zeros(1, dtype=np.int32)
 
     # ------------------------------------------------------------------ set-up
 
@@ -239,20 +230,6 @@ class ControllerRuntime:
         left = np.cross(UP, forward)
         return np.stack([forward, left, np.broadcast_to(UP, forward.shape)], axis=-1)
 
-    def _heights(self, data: mujoco.MjData) -> None:
-        """Fill the raw value of each `height` sensor: the ground (or a prop) below its point.
-
-        Every sensor's point is placed in one vectorised step, then one ray is cast per point.
-        """
-        bodies = self._height_bodies
-        rotations = data.xmat[bodies].reshape(*bodies.shape, 3, 3)
-        points = data.xpos[bodies] + np.einsum("hnij,hnj->hni", rotations, self._height_offsets)
-        registers, model, hit = self._registers, self.model, self._ray_hit
-        for register, row in zip(self._height_registers, points):
-            for animal, at in enumerate(row):
-                distance = mujoco.mj_ray(model, data, at, -UP, WORLD_GEOM_GROUPS, 1, -1, hit)
-                registers[register, animal] = distance if distance >= 0 else at[2]
-
     # ------------------------------------------------------------------ step
 
     def release(self) -> None:
@@ -270,8 +247,6 @@ class ControllerRuntime:
 
     def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:
         """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
-        if self.program.heights:
-            self._heights(data)
         ncon = data.ncon
         fault = run(*self._arguments(data), 0, last, finish, data.time, ncon, *self._contact_arrays(data, ncon))
         if fault != NO_FAULT and self.fault is None:
@@ -307,7 +282,7 @@ class ControllerRuntime:
             self._fixed = (
                 self.program.code, self._registers, self._integers, self._integer_layout, self._reals, self._real_layout, self.dt,
                 data.xpos, data.xmat, data.xipos, data.cvel, data.subtree_com, data.qpos,
-                data.qfrc_applied, data.xfrc_applied, self.model.dof_damping,
+                data.qfrc_applied, data.xfrc_applied, self.model.dof_damping, self.model._address, data._address,
             )  # fmt: skip
             self._fixed_for = data
         return self._fixed
@@ -428,17 +403,52 @@ def compile_for(
             declares are used, and `parameters` win over them.
         places: where each of `parameters` was written (a batch plan's line), for messages.
 
+    The animals' species offer their gait repertoire the same way (`repertoire_parameters`:
+    the Froude numbers of their gaits, the gallop's sequence), under the scene's values.
+
     Returns:
         the compiled controller (bind it with `ControllerRuntime`), and the files it was read
         from (the requested one first), for a caller that watches them.
 
     Raises:
-        QuadpipeError: the files do not validate, or an override does not fit them.
+        QuadpipeError: the files do not validate, or an override does not fit them;
+            `mixed-repertoires` when the animals' species offer different values of a
+            parameter the controller declares and the caller does not set.
     """
     spec = load_controller(controller)
-    offered = {name: value for name, value in (scene_parameters or {}).items() if name in spec.parameters}
-    overrides = offered | dict(parameters or {})
+    given = dict(parameters or {})
+    species, species_places = _species_offers(placements, set(spec.parameters) - set(given))
+    offered = species | {name: value for name, value in (scene_parameters or {}).items() if name in spec.parameters}
+    overrides = offered | given
     if overrides:
-        spec = load_controller(controller, parameters=overrides, places=places)
+        where = {**species_places, **(places or {})} or None
+        spec = load_controller(controller, parameters=overrides, places=where)
     scale = scale_for_animals([p.built.animal for p in placements])
     return compile_controller(spec, scale), spec.sources
+
+
+def _species_offers(placements: Sequence[Placement], declared: set[str]) -> tuple[dict[str, str], dict[str, Location]]:
+    """The repertoire parameters the animals' species offer among `declared`, and where each
+    was written (the animal config's `gaits:`).
+
+    Raises:
+        QuadpipeError: `mixed-repertoires` when two species offer different values of one.
+    """
+    values: dict[str, str] = {}
+    places: dict[str, Location] = {}
+    for placement in placements:
+        animal = placement.built.animal
+        for name, value in repertoire_parameters(animal).items():
+            if name not in declared:
+                continue
+            if values.setdefault(name, value) != value:
+                raise QuadpipeError.single(
+                    "mixed-repertoires",
+                    f"the animals' species set {name} to {values[name]} and {value} ({animal.name}); "
+                    "one controller runs them all",
+                    where=animal.gaits_at,
+                    hint=f"set it for all of them (--set {name}=VALUE), or run each species in its own scene",
+                )
+            if animal.gaits_at is not None:
+                places[name] = animal.gaits_at
+    return values, places
