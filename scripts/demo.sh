@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Install everything, then run quadpipe end to end on the built-in dog: model, a spine-driven
-# walk over a hill baked to glTF / USD / BVH / raw clip, a contact sheet and a short video.
+# Install everything, then run quadpipe end to end on the built-in dog: model, a walk (the
+# `walk` gait) over a hill baked to glTF / USD / BVH / raw clip, a contact sheet and a short video.
 # Outputs go to out/demo/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,9 +12,9 @@ set -x
 $QP animals
 $QP convert dog -o "$OUT/dog.xml"
 $QP validate configs/controllers
-$QP bake --animal dog --controller spine_walk --scene hill --seconds 12 \
+$QP bake --animal dog --controller walk --scene hill --seconds 12 \
   -o "$OUT/dog_hill.npz" -o "$OUT/dog_hill.glb" -o "$OUT/dog_hill.usdc" -o "$OUT/dog_hill.bvh"
-$QP render "$OUT/dog_hill.npz" -o "$OUT/dog_hill.png" -o "$OUT/dog_hill.mp4" --width 480 --height 360
+$QP render "$OUT/dog_hill.npz" -o "$OUT/dog_hill.png" -o "$OUT/dog_hill.mp4" --width 480 --height 360 --view side
 { set +x; } 2>/dev/null
 cat <<MSG
 demo outputs in $OUT/:

@@ -33,3 +33,6 @@ fi
 
 # Node tools for the exporter tests: the Khronos glTF validator and three.js.
 scripts/install_node_tools.sh
+
+# Blender as a Python module (bpy), in its own environment .venv-blender, for tests/test_blender.py.
+scripts/install_blender.sh

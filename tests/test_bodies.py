@@ -187,15 +187,15 @@ def test_usd_body_is_one_mesh_skinned_with_four_weights_per_point(clip, files):
     from pxr import Usd, UsdGeom, UsdSkel, Vt
 
     stage = Usd.Stage.Open(str(files[".usdc"]))
-    prim = stage.GetPrimAtPath("/World/dog/body")
-    assert prim.IsA(UsdGeom.Mesh) and not stage.GetPrimAtPath("/World/dog/meshes")
+    prim = stage.GetPrimAtPath("/World/animals/dog/dog_body")
+    assert prim.IsA(UsdGeom.Mesh) and not stage.GetPrimAtPath("/World/animals/dog/meshes")
     binding = UsdSkel.BindingAPI(prim)
     indices, weights = binding.GetJointIndicesPrimvar(), binding.GetJointWeightsPrimvar()
     assert indices.GetInterpolation() == UsdGeom.Tokens.vertex and indices.GetElementSize() == INFLUENCES
     points = np.array(UsdGeom.Mesh(prim).GetPointsAttr().Get())
     values = np.array(weights.Get()).reshape(len(points), INFLUENCES)
     np.testing.assert_allclose(values.sum(axis=1), 1.0, atol=1e-6)
-    skeleton, binding = skel_query(stage, "/World/dog")
+    skeleton, binding = skel_query(stage, "/World/animals")
     (target,) = binding.GetSkinningTargets()
     assert not target.IsRigidlyDeformed() and target.GetNumInfluencesPerComponent() == INFLUENCES
     joints = np.array(indices.Get()).reshape(len(points), INFLUENCES)
@@ -212,7 +212,9 @@ def test_bones_look_writes_the_bone_meshes(clip, tmp_path):
     from pxr import Usd
 
     stage = Usd.Stage.Open(str(export_clip(clip, tmp_path / "bones.usda", look="bones")))
-    assert stage.GetPrimAtPath("/World/dog/meshes/pelvis") and not stage.GetPrimAtPath("/World/dog/body")
+    assert stage.GetPrimAtPath("/World/animals/dog/meshes/pelvis") and not stage.GetPrimAtPath(
+        "/World/animals/dog/dog_body"
+    )
     document, binary = read_gltf(export_clip(clip, tmp_path / "bones.glb", look="bones"))
     node = next(node for node in document["nodes"] if "skin" in node)
     weights = accessor(document, binary, document["meshes"][node["mesh"]]["primitives"][0]["attributes"]["WEIGHTS_0"])

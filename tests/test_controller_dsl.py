@@ -218,7 +218,8 @@ def test_every_shipped_controller_validates_without_any_issue(in_repo: Path) -> 
     output, code = validate_files([str(SHIPPED)])
     assert (output, code) == (f"{len(shipped)} files checked: no problems\n", 0)
     assert shipped == sorted(
-        THESIS_CONTROLLERS + ("amble", "auto_gait", "bound", "canter", "gallop", "locomotion", "pace", "trot", "walk")
+        THESIS_CONTROLLERS
+        + ("amble", "auto_gait", "bound", "canter", "direct", "gallop", "locomotion", "pace", "trot", "walk")
     )
 
 

@@ -358,8 +358,11 @@ def test_gltf_joints_follow_the_clip_on_every_frame(clip, written, suffix):
     joints = world[:, skin["joints"]]
     assert [document["nodes"][j]["name"] for j in skin["joints"]] == list(track.roles)
     np.testing.assert_allclose(joints[..., :3, 3] @ Y_UP, track.positions, atol=tolerance(clip))
+    # joints are turned along their bones at rest (quadpipe.clip.bind): the skinning transform,
+    # joint world x inverse bind, turns as the clip's bone does
+    inverse_bind = accessor(document, binary, skin["inverseBindMatrices"]).reshape(-1, 4, 4).transpose(0, 2, 1)
     np.testing.assert_allclose(
-        Y_UP.T @ joints[..., :3, :3] @ Y_UP, clip_matrices(track.rotations), atol=ROTATION_TOLERANCE
+        Y_UP.T @ (joints @ inverse_bind)[..., :3, :3] @ Y_UP, clip_matrices(track.rotations), atol=ROTATION_TOLERANCE
     )
     prop = next(i for i, node in enumerate(document["nodes"]) if node["name"] == "crate")
     np.testing.assert_allclose(world[:, prop, :3, 3] @ Y_UP, clip.props[0].positions, atol=tolerance(clip))
@@ -483,7 +486,9 @@ def test_usd_stage_metadata(clip, written, suffix):
     assert stage.GetTimeCodesPerSecond() == stage.GetFramesPerSecond() == clip.fps
     assert (stage.GetStartTimeCode(), stage.GetEndTimeCode()) == (0, clip.frame_count - 1)
     assert stage.GetDefaultPrim().GetPath() == "/World"
-    assert stage.GetPrimAtPath("/World/dog").GetTypeName() == "SkelRoot"
+    assert stage.GetPrimAtPath("/World/animals").GetTypeName() == "SkelRoot"
+    assert stage.GetPrimAtPath("/World/animals/dog").GetTypeName() == "Skeleton"
+    assert stage.GetPrimAtPath("/World").GetAttribute("userProperties:quadpipe:fps").Get() == clip.fps
     assert stage.GetRootLayer().customLayerData["quadpipe"]["status"] == "ok"
 
 
@@ -502,17 +507,21 @@ def test_usd_joints_follow_the_clip_on_every_frame(clip, written, suffix):
     from pxr import Usd, UsdGeom
 
     stage = Usd.Stage.Open(str(written[suffix]))
-    query, _ = skel_query(stage, "/World/dog")
+    query, _ = skel_query(stage, "/World/animals")
     track = clip.animals[0]
     assert [str(j).split("/")[-1] for j in query.GetJointOrder()] == list(track.roles)
+    bind = np.array(query.GetJointWorldBindTransforms())
     for frame in range(clip.frame_count):
         world = np.array(query.ComputeJointWorldTransforms(UsdGeom.XformCache(frame)))
         np.testing.assert_allclose(
             world[:, 3, :3], track.positions[frame], atol=tolerance(clip), err_msg=f"frame {frame}"
         )
-        # Gf matrices act on row vectors: their upper 3x3 is the transposed rotation.
+        # Gf matrices act on row vectors: their upper 3x3 is the transposed rotation. Joints are
+        # turned along their bones at rest (quadpipe.clip.bind): inverse bind x world turns as
+        # the clip's bone does.
+        skinning = np.linalg.inv(bind) @ world
         np.testing.assert_allclose(
-            world[:, :3, :3].transpose(0, 2, 1), clip_matrices(track.rotations[frame]), atol=ROTATION_TOLERANCE
+            skinning[:, :3, :3].transpose(0, 2, 1), clip_matrices(track.rotations[frame]), atol=ROTATION_TOLERANCE
         )
         box = UsdGeom.Xformable(stage.GetPrimAtPath("/World/props/crate")).ComputeLocalToWorldTransform(
             Usd.TimeCode(frame)
@@ -524,7 +533,7 @@ def test_usd_rigid_skinning_moves_each_mesh_with_its_bone(clip, bones_written):
     from pxr import Usd, UsdGeom
 
     stage = Usd.Stage.Open(str(bones_written[".usdc"]))
-    query, binding = skel_query(stage, "/World/dog")
+    query, binding = skel_query(stage, "/World/animals")
     track = clip.animals[0]
     targets = binding.GetSkinningTargets()
     assert len(targets) == len(track.roles)
@@ -544,15 +553,20 @@ def test_usd_rigid_skinning_moves_each_mesh_with_its_bone(clip, bones_written):
 
 
 def test_usd_quaternions_are_stored_real_part_first(clip, written):
-    """GfQuatf(real, imaginary): the root's animated rotation is the clip's pelvis rotation."""
+    """GfQuatf(real, imaginary): the root's animated rotation is the clip's pelvis rotation, after
+    the root's bind rotation (which turns its joint along its bone, quadpipe.clip.bind)."""
     from pxr import Usd, UsdSkel
 
+    from quadpipe.clip.kinematics import multiply
+
     stage = Usd.Stage.Open(str(written[".usda"]))
-    animation = UsdSkel.Animation(stage.GetPrimAtPath("/World/dog/animation"))
+    animation = UsdSkel.Animation(stage.GetPrimAtPath("/World/animals/dog/animation"))
     frame = clip.frame_count - 1
     root = animation.GetRotationsAttr().Get(frame)[0]
     stored = np.array([root.GetReal(), *root.GetImaginary()])
-    expected = clip.animals[0].rotations[frame, 0]
+    turn = UsdSkel.Skeleton(stage.GetPrimAtPath("/World/animals/dog")).GetBindTransformsAttr().Get()[0]
+    bind = turn.ExtractRotationQuat()
+    expected = multiply(clip.animals[0].rotations[frame, 0], np.array([bind.GetReal(), *bind.GetImaginary()]))
     np.testing.assert_allclose(stored * np.sign(stored @ expected), expected, atol=1e-6)
 
 

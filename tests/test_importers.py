@@ -455,7 +455,15 @@ def test_bvh_offsets_accumulate_and_end_sites_end_their_joint(tmp_path: Path) ->
         "Zrotation Xrotation Yrotation\n JOINT Left Up Leg\n {\n  OFFSET 0 1 0\n  End Site\n  {\n"
         "   OFFSET 0 0 2\n  }\n }\n}\nMOTION\nFrames: 0\n"
     )
-    raw = read_raw_skeleton(path)
+    raw = read_raw_skeleton(path, units="cm")
     hips, leg = raw.joints
     assert (leg.name, leg.parent, leg.position, leg.end, leg.line) == ("Left Up Leg", "Hips", (1, 3, 3), (1, 3, 5), 5)
-    assert hips.end is None and (raw.units, raw.up) == ("cm", "y")
+    assert hips.end is None and (raw.units, raw.up) == ("cm", "y") and not raw.warnings
+
+
+def test_bvh_without_a_unit_spanning_few_units_is_read_in_metres_with_a_warning(tmp_path: Path) -> None:
+    path = tmp_path / "small.bvh"
+    path.write_text("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0.6 0\n End Site\n {\n  OFFSET 0 -0.6 0\n }\n}\n")
+    raw = read_raw_skeleton(path)
+    assert raw.units == "m" and [w.code for w in raw.warnings] == ["bvh-units-guessed"]
+    assert read_raw_skeleton(path, units="in").units == "in"

@@ -469,7 +469,7 @@ def test_an_unknown_terrain_type_lists_the_valid_ones(here: Path) -> None:
     write_scene(here, "terrain:\n  - {type: hil, start: 4 HP}\n")
     assert error_text(Path("scene.yaml")) == (
         "scene.yaml:4:12: error unknown-terrain-type: there is no terrain type 'hil'\n"
-        "  hint: did you mean 'hill'? (valid: box, hill, slope, stairs)"
+        "  hint: did you mean 'hill'? (valid: box, hill, mesh, slope, stairs)"
     )
 
 

@@ -132,19 +132,25 @@ def _handlers_installed(pid: int) -> bool:
     return bool(int(caught.split()[1], 16) >> (signal.SIGTERM - 1) & 1)
 
 
-def _run_trial(folder: Path, args: tuple[str, ...], signum: int | None, delay_s: float) -> Trial:
-    """Run `quadpipe ARGS` in `folder` (with a private TMPDIR), signalling it after `delay_s`."""
+def _start(folder: Path, args: tuple[str, ...], *, new_session: bool = False) -> subprocess.Popen:
+    """Start `quadpipe ARGS` in `folder` with empty `out/` and private `tmp/` (its TMPDIR)."""
     (folder / "out").mkdir(parents=True)
     (folder / "tmp").mkdir()
     env = dict(os.environ, PYTHONPATH=str(REPO), TMPDIR=str(folder / "tmp"), COLUMNS="200", NO_COLOR="1")
-    process = subprocess.Popen(
+    return subprocess.Popen(
         [sys.executable, "-m", "quadpipe", *args],
         cwd=folder,
         env=env,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
+        start_new_session=new_session,
     )
+
+
+def _run_trial(folder: Path, args: tuple[str, ...], signum: int | None, delay_s: float) -> Trial:
+    """Run `quadpipe ARGS` in `folder` (with a private TMPDIR), signalling it after `delay_s`."""
+    process = _start(folder, args)
     while not _handlers_installed(process.pid):
         time.sleep(0.002)
     try:
@@ -250,18 +256,7 @@ def test_a_batch_removes_what_killed_runs_left(tmp_path):
 def test_workers_end_quietly_on_a_ctrl_c_to_the_whole_terminal(tmp_path):
     """Ctrl-C reaches every process of the terminal's group: the workers must not print."""
     args = (*BATCH_ARGS[:6], "5", *BATCH_ARGS[7:])
-    (tmp_path / "out").mkdir()
-    (tmp_path / "tmp").mkdir()
-    env = dict(os.environ, PYTHONPATH=str(REPO), TMPDIR=str(tmp_path / "tmp"))
-    process = subprocess.Popen(
-        [sys.executable, "-m", "quadpipe", *args],
-        cwd=tmp_path,
-        env=env,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
+    process = _start(tmp_path, args, new_session=True)
     timer = threading.Timer(4.0, os.killpg, (process.pid, signal.SIGINT))
     timer.start()
     _, stderr = process.communicate(timeout=120)

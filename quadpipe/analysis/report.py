@@ -10,6 +10,7 @@ import json
 from dataclasses import dataclass, field
 from typing import Any
 
+from quadpipe.analysis.direction import DirectionReport
 from quadpipe.analysis.posture import PostureReport
 
 HILDEBRAND_ORDER: tuple[str, ...] = ("lh", "lf", "rf", "rh")
@@ -222,24 +223,27 @@ def _leg_dict(leg: LegGait, fps: float, hp: float) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class GaitReport:
-    """The gait analysis of a clip: one `AnimalGait` per analysed animal, and their posture when measured."""
+    """The gait analysis of a clip: one `AnimalGait` per analysed animal, their posture when
+    measured, and how each directed animal played its direction when the clip has one."""
 
     fps: float
     frame_count: int
     animals: tuple[AnimalGait, ...] = field(default_factory=tuple)
     posture: PostureReport | None = None
+    directions: tuple[DirectionReport, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready report (each animal's `posture` too, when measured)."""
         animals = {animal.name: animal.to_dict() for animal in self.animals}
         for posture in self.posture.animals if self.posture is not None else ():
             animals[posture.name]["posture"] = posture.to_dict()
-        return {
+        report = {
             "fps": self.fps,
             "frames": self.frame_count,
             "duration_s": max(0, self.frame_count - 1) / self.fps,
             "animals": animals,
         }
+        return report | ({"directions": [d.to_dict() for d in self.directions]} if self.directions else {})
 
     def to_json(self) -> str:
         """The report as a JSON document (what `quadpipe analyze -o` writes)."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from quadpipe.analysis.direction import format_direction
 from quadpipe.analysis.posture import AnimalPosture, LegPosture
 from quadpipe.analysis.report import HILDEBRAND_ORDER, AnimalGait, ControllerEffort, GaitReport
 
@@ -16,6 +17,7 @@ def format_report(report: GaitReport) -> str:
     for animal in report.animals:
         posture = postures.get(animal.name)
         sections.append(_format_animal(animal) + ("" if posture is None else "\n" + format_posture(posture)))
+    sections += [format_direction(direction) for direction in report.directions]
     return "\n\n".join(sections)
 
 

@@ -8,11 +8,14 @@ A role map is a small YAML file:
       Hips: pelvis
       "*:L_UpperLeg": lh_hip
       "*_end": ~       # no role: these joints stay unplaced
+      Spine1: [spine0, spine1, spine2]    # a chain: spread over this bone and the ones below
+      "*UpperArm": [shoulder, elbow, wrist]   # leg roles without a leg: the joint's side decides
 
 Without a role map, roles written in the file are used (the quadpipe XML format has them);
 when the file has none, `guess_roles` (`quadpipe.anatomy.role_guess`) places them from the
 joints' names (left/right only) and from the hierarchy and the rest positions (everything
-else); `resolve_roles` decides between the three. See docs/formats.md.
+else); `resolve_roles` decides between the three. Chains, leg roles given by side and
+synthesised roles are worked out by `quadpipe.anatomy.rig`. See docs/formats.md.
 """
 
 from __future__ import annotations
@@ -22,17 +25,18 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from fnmatch import fnmatchcase
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator
 
+from quadpipe.anatomy.rig import LEG_KINDS, RoleValue, roles_in
 from quadpipe.anatomy.role_guess import RoleGuess, guess_roles
 from quadpipe.anatomy.role_names import short_name, unknown_role_hint
 from quadpipe.anatomy.roles import PARENT, ROLES
 from quadpipe.anatomy.skeleton import UNIT_TO_METRES, UP_AXES, RawSkeleton, check_structure
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
-from quadpipe.core.yamlio import load_yaml, validate_document
+from quadpipe.core.yamlio import described_value, load_yaml, validate_document
 
 GLOB_CHARACTERS = "*?["
 """Characters that make a role-map key a pattern rather than a plain name."""
@@ -43,6 +47,22 @@ SHOWN_JOINTS = 5
 # -- role map files -------------------------------------------------------------------------
 
 
+def _role_entry(value: object) -> object:
+    """A role map's value as written, refused in plain words unless it is a role (text), a list
+    of roles, or null (checked before pydantic tries each kind, which would report each)."""
+    if value is None or isinstance(value, str):
+        return value
+    if isinstance(value, list) and value and all(isinstance(item, str) for item in value):
+        return value
+    if isinstance(value, list):
+        raise ValueError(f"a chain of roles must be a non-empty list of roles (text), not {described_value(value)}")
+    raise ValueError(f"must be text, not {described_value(value)}")
+
+
+RoleEntry = Annotated[str | list[str] | None, BeforeValidator(_role_entry)]
+"""One value of a role map's `roles`: a role, a chain of roles, or null."""
+
+
 class RoleMapModel(BaseModel):
     """Schema of a role map YAML file."""
 
@@ -50,8 +70,11 @@ class RoleMapModel(BaseModel):
 
     units: str | None = Field(None, description="Length unit of the skeleton file: m, cm, mm, in or ft.")
     up: str | None = Field(None, description="Up axis of the skeleton file: y or z.")
-    roles: dict[str, str | None] | None = Field(
-        None, description="Joint name or shell glob (case-insensitive) -> role; null leaves the joint unplaced."
+    roles: dict[str, RoleEntry] | None = Field(
+        None,
+        description="Joint name or shell glob (case-insensitive) -> role, or a list of roles spread over the "
+        "joint's bone and the unmapped bones below it; a leg role without its leg (`elbow`) takes the "
+        "joint's side; null leaves the joint unplaced (an extra bone).",
     )
 
     @field_validator("units")
@@ -71,11 +94,17 @@ class RoleMapModel(BaseModel):
 
 @dataclass(frozen=True)
 class RolePattern:
-    """One `pattern: role` line of a role map (`role` None leaves matching joints unplaced)."""
+    """One `pattern: role` line of a role map (`role` None leaves matching joints unplaced; a
+    tuple is a chain of roles)."""
 
     pattern: str
-    role: str | None
+    role: RoleValue | None
     where: Location
+
+    @property
+    def sided(self) -> bool:
+        """Whether its roles include a leg role without its leg, which each joint's side completes."""
+        return self.role is not None and any(role in LEG_KINDS for role in roles_in(self.role))
 
     @property
     def is_glob(self) -> bool:
@@ -113,7 +142,8 @@ def load_role_map(path: str | Path) -> RoleMap:
     patterns = None
     if model.roles is not None:
         patterns = tuple(
-            RolePattern(pattern, role, doc.locate(("roles", pattern))) for pattern, role in model.roles.items()
+            RolePattern(pattern, role if not isinstance(role, list) else tuple(role), doc.locate(("roles", pattern)))
+            for pattern, role in model.roles.items()
         )
         _check_roles(patterns)
     return RoleMap(doc.file, model.units, model.up, patterns)
@@ -123,29 +153,32 @@ def _check_roles(patterns: Sequence[RolePattern]) -> None:
     issues = [
         Issue(
             "unknown-role",
-            f"{p.role!r} (for {p.pattern!r}) is not a role of the reference hierarchy",
+            f"{role!r} (for {p.pattern!r}) is not a role of the reference hierarchy",
             p.where,
-            unknown_role_hint(p.role),
+            unknown_role_hint(role),
         )
         for p in patterns
-        if p.role is not None and p.role not in PARENT
+        if p.role is not None
+        for role in roles_in(p.role)
+        if role not in PARENT and role not in LEG_KINDS
     ]
     if issues:
         raise QuadpipeError(issues)
 
 
-def apply_role_map(raw: RawSkeleton, role_map: RoleMap) -> tuple[dict[str, str], tuple[Issue, ...]]:
+def apply_role_map(raw: RawSkeleton, role_map: RoleMap) -> tuple[dict[str, RoleValue], tuple[Issue, ...]]:
     """Roles of the joints matched by a role map's patterns.
 
     A joint takes the role of the pattern that names it exactly (case-insensitive), else of
     the first glob in file order that matches it.
 
     Returns:
-        joint name -> role, and warnings for patterns that match no joint.
+        joint name -> role (or chain of roles), and warnings for patterns that match no joint.
 
     Raises:
         QuadpipeError: `ambiguous-pattern` when one pattern gives its role to several
-            joints, `duplicate-role` when two patterns give the same role.
+            joints (a pattern whose leg roles the side completes may match one joint a side),
+            `duplicate-role` when two patterns give the same role.
     """
     patterns = role_map.patterns or ()
     chosen: dict[str, RolePattern] = {}
@@ -174,13 +207,13 @@ def apply_role_map(raw: RawSkeleton, role_map: RoleMap) -> tuple[dict[str, str],
 
 
 def _role_conflicts(chosen: Mapping[str, RolePattern]) -> list[Issue]:
-    by_role: dict[str, list[tuple[str, RolePattern]]] = {}
+    by_role: dict[RoleValue, list[tuple[str, RolePattern]]] = {}
     for name, pattern in chosen.items():
         if pattern.role is not None:
             by_role.setdefault(pattern.role, []).append((name, pattern))
     issues = []
     for role, holders in by_role.items():
-        if len(holders) < 2:
+        if len(holders) < (3 if holders[0][1].sided else 2):
             continue
         (first_name, first), (second_name, second) = holders[0], holders[1]
         if first is second:
@@ -218,13 +251,13 @@ class RoleResolution:
     Attributes:
         raw: the skeleton with the role map's units and up axis applied (and the file's own
             roles removed when a role map gives roles).
-        roles: joint name -> role, for joints the file gives no role.
+        roles: joint name -> role (or chain of roles), for joints the file gives no role.
         warnings: unused role-map patterns, guessed chains that skipped joints.
         guess: the guess, when roles were guessed.
     """
 
     raw: RawSkeleton
-    roles: dict[str, str]
+    roles: dict[str, RoleValue]
     warnings: tuple[Issue, ...] = ()
     guess: RoleGuess | None = None
 
@@ -252,8 +285,8 @@ def resolve_roles(raw: RawSkeleton, role_map: str | Path | None = None) -> RoleR
         return RoleResolution(raw, {})
     check_structure(raw)
     guess = guess_roles(raw)
-    if any(role not in file_roles for role in guess.missing):
-        raise QuadpipeError(_missing_issues(raw, guess))
+    if any(role not in file_roles for role in guess.missing) or guess.problems:
+        raise QuadpipeError(guess.issues(raw))
     named = {j.name for j in raw.joints if j.role}
     roles = {name: role for name, role in guess.roles.items() if name not in named and role not in file_roles}
     warnings = tuple(
@@ -267,18 +300,6 @@ def resolve_roles(raw: RawSkeleton, role_map: str | Path | None = None) -> RoleR
         for note in guess.skips
     )
     return RoleResolution(raw, roles, warnings, guess)
-
-
-def _missing_issues(raw: RawSkeleton, guess: RoleGuess) -> list[Issue]:
-    shown = ", ".join(guess.missing[:12]) + (" ..." if len(guess.missing) > 12 else "")
-    error = Issue(
-        "missing-roles",
-        f"{len(guess.missing)} of the 39 roles could not be guessed from the joints' names and layout: {shown}",
-        raw.where(),
-        f"`quadpipe roles {raw.source} -o roles.yaml` writes what was guessed; complete it and pass it with --roles roles.yaml",
-    )
-    notes = [Issue("guessed-roles", note, raw.where(), severity="note") for note in guess.notes]
-    return [error, *notes]
 
 
 def role_map_text(

@@ -8,10 +8,11 @@ and axes). `assemble` checks it, gives each joint a role, converts it to quadpip
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from quadpipe.anatomy.binding import RigBinding
 from quadpipe.anatomy.roles import CHILDREN, FRONT_CHAIN, HIND_CHAIN, LEAVES, LEGS, MAIN_CHILD, PARENT, ROLES, TOE_BONES
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.limits import SKELETON_COORDINATE_M
@@ -56,13 +57,15 @@ class JointRecord:
 
 @dataclass(frozen=True)
 class RawSkeleton:
-    """A skeleton as read from a file: joints in file order, units and up axis declared."""
+    """A skeleton as read from a file: joints in file order, units and up axis declared, and
+    the reader's warnings (guessed units, joints it could not place exactly)."""
 
     name: str
     source: str
     joints: tuple[JointRecord, ...]
     units: str = "cm"
     up: str = "y"
+    warnings: tuple[Issue, ...] = ()
 
     def where(self, joint: JointRecord | None = None) -> Location:
         """Location of a joint (or of the file) for messages."""
@@ -109,12 +112,15 @@ class Skeleton:
         source: the file it came from.
         bones: role -> Bone, in hierarchy order (parents first).
         warnings: non-fatal issues found while assembling (unplaced bones, ...).
+        rig: the source rig's own joints and the roles they follow, when they are not simply
+            the 39 roles (`quadpipe.anatomy.rig`).
     """
 
     name: str
     source: str
     bones: dict[str, Bone]
     warnings: tuple[Issue, ...] = field(default=())
+    rig: RigBinding | None = None
 
     def __getitem__(self, role: str) -> Bone:
         return self.bones[role]
@@ -141,14 +147,16 @@ def assemble(raw: RawSkeleton, role_of: Mapping[str, str] | None = None) -> Skel
         The skeleton, with warnings for joints that were left without a role.
 
     Raises:
-        QuadpipeError: duplicate names, unknown parents, a cycle, unknown or missing roles,
-            a bone hanging under the wrong parent, a zero-length bone, a leaf without an end,
-            or left legs on the right side.
+        QuadpipeError: duplicate names, unknown parents, a cycle; unknown, duplicate or missing
+            roles and bones hanging under the wrong parent, all of them at once; a zero-length
+            bone, a leaf without an end, or left legs on the right side.
     """
     by_name = check_structure(raw)
     role_of = dict(role_of or {})
-    joint_of_role = _assign_roles(raw, by_name, role_of)
-    _check_parents(raw, by_name, joint_of_role)
+    joint_of_role, issues = _assign_roles(raw, by_name, role_of)
+    issues += _check_parents(raw, by_name, joint_of_role)
+    if issues:
+        raise QuadpipeError(issues)
 
     rotation = _body_rotation(raw, joint_of_role)
     scale = UNIT_TO_METRES[raw.units]
@@ -178,6 +186,36 @@ def assemble(raw: RawSkeleton, role_of: Mapping[str, str] | None = None) -> Skel
     skeleton = Skeleton(raw.name, raw.source, bones, warnings)
     _check_sides(raw, skeleton)
     return skeleton
+
+
+def reroot(raw: RawSkeleton, name: str) -> RawSkeleton:
+    """The same joints with `name` as the root: parents reversed on the path from it up to the
+    file's root (a centre-of-gravity or `Bip01` root above the pelvis hangs under it), joints
+    listed parents first. Positions do not change."""
+    by_name = {joint.name: joint for joint in raw.joints}
+    path = [name]
+    while (parent := by_name[path[-1]].parent) is not None:
+        path.append(parent)
+    parents = {joint.name: joint.parent for joint in raw.joints}
+    parents.update({child: parent for parent, child in zip(path, path[1:])})
+    parents[name] = None
+    children: dict[str | None, list[str]] = {}
+    for joint in raw.joints:
+        children.setdefault(parents[joint.name], []).append(joint.name)
+    order, stack = [], [name]
+    while stack:
+        current = stack.pop()
+        order.append(replace(by_name[current], parent=parents[current]))
+        stack.extend(reversed(children.get(current, [])))
+    others = [joint for joint in raw.joints if joint.name not in {j.name for j in order}]
+    return replace(raw, joints=tuple(order + others))
+
+
+def body_frame(raw: RawSkeleton, role_of: Mapping[str, str]) -> tuple[np.ndarray, float]:
+    """The rotation from the file's axes to the body frame and the file unit in metres, for a
+    skeleton whose joints `role_of` (name -> role) includes the pelvis and the thorax."""
+    joint_of_role = {role: joint for joint in raw.joints if (role := role_of.get(joint.name, joint.role))}
+    return _body_rotation(raw, joint_of_role), UNIT_TO_METRES[raw.units]
 
 
 def check_coordinates(raw: RawSkeleton) -> RawSkeleton:
@@ -279,37 +317,37 @@ def _check_hierarchy(raw: RawSkeleton, by_name: Mapping[str, JointRecord]) -> No
 
 def _assign_roles(
     raw: RawSkeleton, by_name: Mapping[str, JointRecord], role_of: dict[str, str]
-) -> dict[str, JointRecord]:
+) -> tuple[dict[str, JointRecord], list[Issue]]:
+    """Each role's joint, and every problem with them: unknown roles, roles given twice, and the
+    roles no joint has when there are more of them than refused joints (each joint whose role
+    was refused stands for the role it was meant to have: the first two issues say so)."""
     joint_of_role: dict[str, JointRecord] = {}
+    issues: list[Issue] = []
     for joint in raw.joints:
         role = joint.role or role_of.get(joint.name)
         if role is None:
             continue
         if role not in PARENT:
-            raise QuadpipeError.single(
-                "unknown-role",
-                f"joint {joint.name!r} has role {role!r}, which is not a role of the reference hierarchy",
-                where=raw.where(joint),
-                hint=did_you_mean(role, ROLES, listing=False) or "see `quadpipe roles` for the 39 roles",
-            )
-        if role in joint_of_role:
-            raise QuadpipeError.single(
-                "duplicate-role",
-                f"role {role!r} is given to both {joint_of_role[role].name!r} and {joint.name!r}",
-                where=raw.where(joint),
-                hint="each role belongs to exactly one bone",
-            )
-        joint_of_role[role] = joint
+            hint = did_you_mean(role, ROLES, listing=False) or "see `quadpipe roles` for the 39 roles"
+            message = f"joint {joint.name!r} has role {role!r}, which is not a role of the reference hierarchy"
+            issues.append(Issue("unknown-role", message, raw.where(joint), hint))
+        elif role in joint_of_role:
+            message = f"role {role!r} is given to both {joint_of_role[role].name!r} and {joint.name!r}"
+            issues.append(Issue("duplicate-role", message, raw.where(joint), "each role belongs to exactly one bone"))
+        else:
+            joint_of_role[role] = joint
     missing = [role for role in ROLES if role not in joint_of_role]
-    if missing:
+    if len(missing) > len(issues):
         shown = ", ".join(missing[:12]) + (" ..." if len(missing) > 12 else "")
-        raise QuadpipeError.single(
-            "missing-roles",
-            f"{len(missing)} of the 39 roles have no bone: {shown}",
-            where=raw.where(),
-            hint="give these joints a role (role attribute, or a role map with --roles)",
+        issues.append(
+            Issue(
+                "missing-roles",
+                f"{len(missing)} of the 39 roles have no bone: {shown}",
+                raw.where(),
+                "give these joints a role (role attribute, or a role map with --roles)",
+            )
         )
-    return joint_of_role
+    return joint_of_role, issues
 
 
 def _mapped_ancestor(joint: JointRecord, by_name: Mapping[str, JointRecord], mapped: Mapping[str, str]) -> str | None:
@@ -324,19 +362,21 @@ def _mapped_ancestor(joint: JointRecord, by_name: Mapping[str, JointRecord], map
 
 def _check_parents(
     raw: RawSkeleton, by_name: Mapping[str, JointRecord], joint_of_role: Mapping[str, JointRecord]
-) -> None:
+) -> list[Issue]:
+    """A `wrong-parent` issue for every bone not under its reference parent (bones whose parent
+    role has no joint are left to `missing-roles`)."""
     role_by_joint = {joint.name: role for role, joint in joint_of_role.items()}
+    issues = []
     for role, joint in joint_of_role.items():
         found = _mapped_ancestor(joint, by_name, role_by_joint)
         expected = PARENT[role]
-        if found != expected:
+        if found != expected and (expected is None or expected in joint_of_role):
             under = f"under {found!r}" if found else "at the root"
-            raise QuadpipeError.single(
-                "wrong-parent",
-                f"bone {joint.name!r} (role {role}) hangs {under}; the reference hierarchy puts it under {expected!r}",
-                where=raw.where(joint),
-                hint="fix the joint's parent, or its role",
+            message = (
+                f"bone {joint.name!r} (role {role}) hangs {under}; the reference hierarchy puts it under {expected!r}"
             )
+            issues.append(Issue("wrong-parent", message, raw.where(joint), "fix the joint's parent, or its role"))
+    return issues
 
 
 def _end_point(
@@ -415,7 +455,8 @@ def _unplaced_warning(raw: RawSkeleton, unplaced: list[str]) -> tuple[Issue, ...
             "unplaced-joints",
             f"{len(unplaced)} joint(s) have no role and are left out: {shown}",
             raw.where(),
-            "map them in a role map (--roles) if they should be bones; end sites need nothing",
+            "map them in a role map (--roles) if they should be bones; end sites need nothing; "
+            "baked onto the rig (bake --skeleton rig), they ride on their parent",
             severity="warning",
         ),
     )

@@ -15,8 +15,11 @@ from typing import TYPE_CHECKING
 from quadpipe.animals.sizing import FRAME_RATE
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.bodies import Look
+    from quadpipe.controllers.runtime.variation import Variation
     from quadpipe.core.errors import Location
+    from quadpipe.exporters import SkeletonChoice
     from quadpipe.sim.simulation import Result
 
 METRICS_SUFFIX = ".metrics.json"
@@ -24,7 +27,7 @@ METRICS_SUFFIX = ".metrics.json"
 
 
 def bake(
-    animal: str,
+    animal: str | AnimalSource,
     controller: str,
     *,
     seconds: float,
@@ -36,11 +39,17 @@ def bake(
     on_frame: Callable[[float], None] | None = None,
     places: Mapping[str, Location] | None = None,
     look: Look = "body",
+    skeleton: SkeletonChoice = "rig",
+    direction: Path | None = None,
+    variation: Variation | None = None,
 ) -> Result:
     """Simulate once (see `quadpipe.sim.simulation.simulate`), write the clip into every output,
     then the metrics JSON: all of them, or none (inside a running `transaction`, at its commit).
     `places` says where each of `parameters` was written (a batch plan's line), for messages;
-    `look` how glTF and USD files draw the animals (`quadpipe.bodies`).
+    `look` how glTF and USD files draw the animals (`quadpipe.bodies`); `skeleton` whether an
+    animal imported from a rig is written on the rig's joints (`quadpipe.exporters.export_clip`);
+    `direction` a direction file replacing the scene's (docs/direction.md);
+    `variation` how the gait varies from stride to stride (None: not at all).
 
     Raises:
         QuadpipeError: the inputs cannot be loaded, the simulation blew up, a file cannot be
@@ -59,9 +68,11 @@ def bake(
         on_frame=on_frame,
         fps=fps,
         places=places,
+        direction=direction,
+        variation=variation,
     )
     with transaction():
         for output in outputs:
-            export_clip(result.clip, output, look=look)
+            export_clip(result.clip, output, look=look, skeleton=skeleton)
         write_text(metrics_path, json.dumps(result.metrics, indent=2) + "\n")
     return result

@@ -18,6 +18,7 @@ from typing import Any
 
 from quadpipe.batch.bake import METRICS_SUFFIX, bake
 from quadpipe.batch.plan import BatchPlan, expand_names, label, looks_like_path
+from quadpipe.controllers.runtime.variation import Variation
 from quadpipe.core.atomic import remove_stale
 from quadpipe.core.errors import Location, QuadpipeError
 
@@ -38,6 +39,8 @@ class Job:
         folder: absolute path of the output folder.
         parameters: controller parameter values, as (name, value) pairs.
         parameter_places: where each of them is written in the plan file, as (name, location) pairs.
+        variation: stride-to-stride variation of the gait (0: none), drawn from `seed`.
+        seed: the variation's seed.
     """
 
     animal: str
@@ -48,6 +51,8 @@ class Job:
     folder: str
     parameters: tuple[tuple[str, Any], ...] = ()
     parameter_places: tuple[tuple[str, Location], ...] = ()
+    variation: float = 0.0
+    seed: int = 0
 
     @property
     def name(self) -> str:
@@ -121,6 +126,8 @@ def _job(plan: BatchPlan, folder: str, animal: str, controller: str, scene: str)
         folder=folder,
         parameters=tuple(parameters.items()),
         parameter_places=tuple(places.items()),
+        variation=plan.variation,
+        seed=plan.seed,
     )
 
 
@@ -236,6 +243,7 @@ def _bake(job: Job, link: WorkerLink | None) -> dict:
         outputs=job.outputs,
         metrics_path=job.metrics_path,
         on_frame=_ProgressTicker(job.name, link) if link is not None else None,
+        variation=Variation(job.variation, job.seed) if job.variation else None,
     )
     return result.metrics
 

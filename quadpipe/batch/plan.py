@@ -14,6 +14,7 @@ from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, PrivateAttr
 
+from quadpipe.controllers.runtime.variation import MAX_VARIATION
 from quadpipe.core import configs
 from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.limits import MAX_SIMULATED_SECONDS
@@ -107,6 +108,13 @@ class BatchPlan(BaseModel):
     seconds: float = Field(DEFAULT_SECONDS, gt=0, description="Simulated time of every job.")
     formats: Formats = Field([DEFAULT_FORMAT], description="Formats to write, by suffix: glb, usdc, bvh, npz...")
     output: str = Field(DEFAULT_OUTPUT, min_length=1, description="Folder of the files (created if missing).")
+    variation: float = Field(
+        0.0,
+        ge=0.0,
+        le=MAX_VARIATION,
+        description="Natural stride-to-stride variation of every job's gait (0.03: stride times vary 3 %); 0: none.",
+    )
+    seed: int = Field(0, ge=0, description="Seed of `variation`: the same seed, the same files.")
     overrides: list[JobOverride] = Field([], description="Per-job settings, applied in order (later ones win).")
     _places: list[dict[str, Location]] = PrivateAttr(default_factory=list)
     """For each override, where each of its parameter values is written in the plan file."""
@@ -181,6 +189,8 @@ def plan_from(
     seconds: float | None = None,
     formats: Sequence[str] | None = None,
     output: str | Path | None = None,
+    variation: float | None = None,
+    seed: int | None = None,
 ) -> BatchPlan:
     """A plan from a file (optional) and command-line options, which replace the file's values.
 
@@ -198,6 +208,8 @@ def plan_from(
         "seconds": seconds,
         "formats": _split(formats),
         "output": None if output is None else str(output),
+        "variation": variation,
+        "seed": seed,
     }
     merged = base | {key: value for key, value in options.items() if value is not None}
     if "animals" not in merged or "controllers" not in merged:

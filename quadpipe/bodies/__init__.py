@@ -45,6 +45,11 @@ INFLUENCES = 4
 TARGET_TRIANGLES = 20000
 """Triangles of a body after decimation."""
 
+POSE_DECIMALS = 9
+"""Rest poses (relative to the root joint, in metres) equal to this many decimals (a nanometre)
+share one body: the same skeleton placed elsewhere differs by rounding only."""
+
+
 __all__ = ["LOOKS", "BodyMesh", "Look", "body_mesh", "dress"]
 
 
@@ -62,15 +67,19 @@ def dress(clip: Clip, look: Look = "body") -> Clip:
 
 
 def body_mesh(track: AnimalTrack) -> BodyMesh:
-    """The skinned body of an animal, in its rest pose (cached per species, size and pose)."""
-    return _body_mesh(
+    """The skinned body of an animal, in its rest pose (cached per species, size and pose
+    relative to the root joint, to `POSE_DECIMALS`, so that the animals of a crowd share one
+    body moved to each)."""
+    origin = track.rest_start[0]
+    body = _body_mesh(
         track.species,
         float(track.pelvis_height),
         float(track.mass_kg),
-        track.rest_start.tobytes(),
-        track.rest_end.tobytes(),
+        np.round(track.rest_start - origin, POSE_DECIMALS).tobytes(),
+        np.round(track.rest_end - origin, POSE_DECIMALS).tobytes(),
         track.roles,
     )
+    return dataclasses.replace(body, vertices=body.vertices + origin)
 
 
 @functools.lru_cache(maxsize=32)

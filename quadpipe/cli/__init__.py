@@ -7,7 +7,7 @@ lists them:
     library   animals, roles, convert, inspect, controllers, scenes   the built-in library and skeleton files
     checks    validate, schema                                        checking files, their formats
     run       simulate, bake, batch, preview                          running simulations
-    media     render, analyze                                         pictures and figures of a clip
+    media     render, analyze, blender-script                         pictures and figures of a clip, DCC import
 
 Every command's help ends with an example. Heavy modules (mujoco, numpy, pxr, open3d) are
 imported inside the commands so that `quadpipe --help` stays instant.
@@ -33,6 +33,7 @@ COMMANDS = (
     run.preview,
     media.render,
     media.analyze,
+    media.blender_script,
 )
 """Every command, in the order of `quadpipe --help`; each is named after its function."""
 

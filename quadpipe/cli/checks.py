@@ -22,6 +22,7 @@ class SchemaKind(str, Enum):
 
     controller = "controller"
     scene = "scene"
+    direction = "direction"
 
 
 def validate(
@@ -53,6 +54,10 @@ def schema(kind: Annotated[SchemaKind, typer.Argument(help="Which file format.")
         from quadpipe.controllers.language import controller_json_schema
 
         typer.echo(json.dumps(controller_json_schema(), indent=2))
+    elif kind is SchemaKind.direction:
+        from quadpipe.world.schema import direction_json_schema
+
+        typer.echo(json.dumps(direction_json_schema(), indent=2))
     else:
         from quadpipe.world import scene_json_schema
 

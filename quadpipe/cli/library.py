@@ -9,10 +9,11 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from quadpipe.cli.options import FormatOpt, LimitsOpt, MassOpt, OutputFormat, RolesOpt, SourceArg
+from quadpipe.cli.options import FormatOpt, LimitsOpt, MassOpt, OutputFormat, RestFrameOpt, RolesOpt, SourceArg
 from quadpipe.cli.output import print_table, print_warnings
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.animals.model import BuiltAnimal
 
 
@@ -23,12 +24,30 @@ ROLE_MAP_SUFFIXES = (".yaml", ".yml")
 """Suffixes of the role maps `roles -o` writes."""
 
 
-def built_animal(source: str, limits: Path | None, roles: Path | None, mass: float | None) -> BuiltAnimal:
+def announce_animal(source: AnimalSource) -> None:
+    """Before simulating a skeleton file: its warnings and notes (synthesised roles, the mass
+    rule), and one line with its joints, pelvis height and the mass used. Nothing for an
+    animal name or config."""
+    from quadpipe.animals.library import load_animal
+    from quadpipe.importers import skeleton_readers
+
+    if Path(source.source).suffix.lower() not in skeleton_readers():
+        return
+    animal = load_animal(source)
+    print_warnings(animal.warnings)
+    rig = animal.skeleton.rig
+    joints = "the 39 roles" if rig is None else f"{len(rig.joints)} joints ({len(rig.extras)} extra)"
+    typer.echo(f"{animal.name}: {joints}, HP {animal.pelvis_height * 100:.1f} cm, mass {animal.mass_kg:.3g} kg")
+
+
+def built_animal(
+    source: str, limits: Path | None, roles: Path | None, mass: float | None, rest_frame: int | None = None
+) -> BuiltAnimal:
     """Resolve and build an animal, printing its warnings."""
     from quadpipe.animals.library import resolve_animal
     from quadpipe.animals.model import build_animal
 
-    animal = resolve_animal(source, limits=limits, role_map=roles, mass_kg=mass)
+    animal = resolve_animal(source, limits=limits, role_map=roles, mass_kg=mass, rest_frame=rest_frame)
     print_warnings(animal.warnings)
     return build_animal(animal)
 
@@ -69,8 +88,13 @@ def roles(
         Path | None, typer.Argument(help="A skeleton file (.ma, .bvh, .xml) whose roles to guess.")
     ] = None,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the guess as a role map YAML.")] = None,
+    rest_frame: RestFrameOpt = None,
 ) -> None:
     """List the 39 roles; with a skeleton file, show (and write) the roles guessed for its joints.
+
+    A guess that misses roles or fails anatomy (legs not under the trunk, a left leg on the
+    right...) ends with one error listing every problem (exit 1), after the table and the
+    role map, which stay for you to complete.
 
     Example: quadpipe roles rig.ma -o rig_roles.yaml   (then: quadpipe inspect rig.ma --roles rig_roles.yaml)
     """
@@ -81,6 +105,7 @@ def roles(
         return
     from quadpipe.anatomy.role_guess import guess_roles
     from quadpipe.anatomy.rolemap import write_role_map
+    from quadpipe.core.errors import QuadpipeError
     from quadpipe.importers import read_raw_skeleton
 
     if output is not None:
@@ -90,18 +115,19 @@ def roles(
         check_distinct([("-o", output)], [("the skeleton", skeleton)])
         check_suffix("-o", output, ROLE_MAP_SUFFIXES, "a role map (YAML)")
         check_writable(output)
-    raw = read_raw_skeleton(skeleton)
+    raw = read_raw_skeleton(skeleton, rest_frame=rest_frame)
+    print_warnings(raw.warnings)
     guess = guess_roles(raw)
     placed = {role: name for name, role in guess.roles.items()}
     print_table(
         f"Roles guessed for {skeleton}", ["role", "joint"], [[role, placed.get(role, "(not placed)")] for role in ROLES]
     )
-    if guess.missing:
-        for note in guess.notes:
-            typer.echo(f"note: {note}", err=True)
     if output is not None:
         write_role_map(output, guess.roles, source=raw.source, missing=guess.missing)
         typer.echo(f"wrote {output} ({len(guess.roles)} joints placed, {len(guess.missing)} roles missing)")
+    issues = guess.issues(raw)
+    if issues:
+        raise QuadpipeError(issues)
 
 
 def convert(
@@ -111,6 +137,7 @@ def convert(
     roles: RolesOpt = None,
     mass: MassOpt = None,
     floor: Annotated[bool, typer.Option("--floor/--no-floor", help="Include a floor and a light.")] = True,
+    rest_frame: RestFrameOpt = None,
 ) -> None:
     """Build an animal's physical model and write it as MJCF (opens in `python -m mujoco.viewer`).
 
@@ -124,7 +151,7 @@ def convert(
     check_distinct([("-o", output)], [(option, path) for option, path in inputs if path is not None])
     check_suffix("-o", output, MJCF_SUFFIXES, "MJCF (XML)")
     check_writable(output)
-    built = built_animal(source, limits, roles, mass)
+    built = built_animal(source, limits, roles, mass, rest_frame)
     write_text(output, world_mjcf([Placement(built.animal.name, built)], floor=floor))
     typer.echo(
         f"wrote {output} ({built.animal.name}: {len(built.animal.skeleton.bones)} bones, {built.animal.mass_kg:g} kg)"
@@ -137,6 +164,7 @@ def inspect(
     roles: RolesOpt = None,
     mass: MassOpt = None,
     fmt: FormatOpt = OutputFormat.text,
+    rest_frame: RestFrameOpt = None,
 ) -> None:
     """Show an animal's bones: roles, file names, lengths, radii, masses and joint limits.
 
@@ -146,7 +174,7 @@ def inspect(
     """
     from quadpipe.animals import report
 
-    built = built_animal(source, limits, roles, mass)
+    built = built_animal(source, limits, roles, mass, rest_frame)
     summary, bones = report.animal_row(built), report.bone_rows(built)
     if fmt is OutputFormat.json:
         typer.echo(json.dumps({"animal": summary, "bones": bones}, indent=2))

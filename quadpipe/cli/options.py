@@ -9,7 +9,9 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.bodies import Look as LookName
+    from quadpipe.controllers.runtime.variation import Variation
     from quadpipe.core.errors import Location
 
 
@@ -47,6 +49,10 @@ LimitsOpt = Annotated[
     Path | None, typer.Option("--limits", help="Joint-limit table for a bare skeleton (default: the thesis's).")
 ]
 RolesOpt = Annotated[Path | None, typer.Option("--roles", help="Role map YAML for a skeleton's own bone names.")]
+RestFrameOpt = Annotated[
+    int | None,
+    typer.Option("--rest-frame", min=0, help="Take frame N (from 0) of a BVH file's motion as the standing rest pose."),
+]
 
 
 def _sane_mass(mass: float | None) -> float | None:
@@ -60,9 +66,42 @@ MassOpt = Annotated[
     float | None, typer.Option("--mass", callback=_sane_mass, help="Body mass in kg for a bare skeleton.")
 ]
 
-AnimalOpt = Annotated[str, typer.Option("--animal", "-a", help="Animal name or config file.")]
+AnimalOpt = Annotated[
+    str, typer.Option("--animal", "-a", help="Animal name or config file, or a skeleton file (.ma, .bvh, .xml).")
+]
+
+
+class Skeleton(str, Enum):
+    """Which joints a bake writes (`quadpipe.exporters.SkeletonChoice`)."""
+
+    rig = "rig"
+    roles = "roles"
+
+
+SkeletonOpt = Annotated[
+    Skeleton,
+    typer.Option(
+        "--skeleton",
+        help="Write an imported rig's own joints (names, hierarchy, extra bones) or the 39 roles (glTF, USD, BVH).",
+    ),
+]
+
+
+def animal_source(animal: str, limits: Path | None, roles: Path | None, mass: float | None) -> AnimalSource:
+    """`-a` with the options that complete a skeleton file (refused, when loaded, for an animal name)."""
+    from quadpipe.animals.library import AnimalSource
+
+    return AnimalSource(animal, limits, roles, mass)
+
+
 ControllerOpt = Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")]
 SceneOpt = Annotated[str, typer.Option("--scene", help="Scene name or file: terrain, props, throws, goals.")]
+DirectionOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--direction", help="Direction file (a path and beats, docs/direction.md); replaces the scene's direction."
+    ),
+]
 SecondsOpt = Annotated[float, typer.Option("--seconds", "-s", help="Simulated time.")]
 SetOpt = Annotated[
     list[str] | None, typer.Option("--set", help="Override a controller parameter: NAME=VALUE (repeatable).")
@@ -79,6 +118,26 @@ GaitReportOpt = Annotated[
 DiagramOpt = Annotated[
     Path | None, typer.Option("--diagram", help="Also draw the footfall (Hildebrand) diagram to this PNG file.")
 ]
+VariationOpt = Annotated[
+    float,
+    typer.Option(
+        "--variation",
+        help="Natural stride-to-stride variation of the gait, 0 to 0.2 (0.03: stride times vary 3 %, left and right differ a little); 0: none.",
+    ),
+]
+SeedOpt = Annotated[int, typer.Option("--seed", help="Seed of --variation: the same seed, the same clip.")]
+
+
+def variation_of(amount: float, seed: int) -> Variation | None:
+    """The `--variation` and `--seed` options, checked (None: no variation).
+
+    Raises:
+        QuadpipeError: `bad-variation`.
+    """
+    from quadpipe.controllers.runtime.variation import check_variation
+
+    variation = check_variation(amount, seed, names=("--variation", "--seed"))
+    return variation if variation.active else None
 
 
 def parse_parameters(pairs: list[str] | None) -> dict[str, str]:

@@ -12,22 +12,35 @@ from quadpipe.cli.options import (
     AnimalOpt,
     ControllerOpt,
     DiagramOpt,
+    DirectionOpt,
     FpsOpt,
     GaitReportOpt,
+    LimitsOpt,
     Look,
     LookOpt,
+    MassOpt,
     MetricsOpt,
+    RolesOpt,
     SceneOpt,
     SecondsOpt,
+    SeedOpt,
     SetOpt,
+    Skeleton,
+    SkeletonOpt,
+    VariationOpt,
+    animal_source,
     look_name,
     parameter_places,
     parse_parameters,
+    variation_of,
 )
 from quadpipe.cli.output import print_warnings, write_gait_files
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.bodies import Look as LookName
+    from quadpipe.controllers.runtime.variation import Variation
+    from quadpipe.exporters import SkeletonChoice
     from quadpipe.preview.base import Preview
 
 
@@ -45,13 +58,35 @@ def simulate(
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
     look: LookOpt = Look.body,
+    limits: LimitsOpt = None,
+    roles: RolesOpt = None,
+    mass: MassOpt = None,
+    skeleton: SkeletonOpt = Skeleton.rig,
+    direction: DirectionOpt = None,
+    variation: VariationOpt = 0.0,
+    seed: SeedOpt = 0,
 ) -> None:
     """Simulate an animal under a controller and write the clip and its metrics.
 
-    Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png
+    Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png --variation 0.03
+    |   quadpipe simulate -a rig.bvh --roles rig_roles.yaml --mass 25 -c walk -o rig_walk.bvh
     """
+    source = animal_source(animal, limits, roles, mass)
     _bake_and_report(
-        animal, controller, scene, seconds, [output], metrics, parameters, fps, gait_report, diagram, look_name(look)
+        source,
+        controller,
+        scene,
+        seconds,
+        [output],
+        metrics,
+        parameters,
+        fps,
+        gait_report,
+        diagram,
+        look_name(look),
+        skeleton.value,
+        direction,
+        variation_of(variation, seed),
     )
 
 
@@ -67,19 +102,41 @@ def bake(
     gait_report: GaitReportOpt = None,
     diagram: DiagramOpt = None,
     look: LookOpt = Look.body,
+    limits: LimitsOpt = None,
+    roles: RolesOpt = None,
+    mass: MassOpt = None,
+    skeleton: SkeletonOpt = Skeleton.rig,
+    direction: DirectionOpt = None,
+    variation: VariationOpt = 0.0,
+    seed: SeedOpt = 0,
 ) -> None:
     """Simulate once and bake the motion into every requested file; the suffix picks the format.
 
-    Formats: .glb .gltf (glTF 2.0), .usda .usdc .usdz (OpenUSD), .bvh, .npz (raw clip).
+    Formats: .glb .gltf (glTF 2.0), .usda .usdc .usdz (OpenUSD), .bvh, .npz (raw clip). A skeleton
+    file (-a rig.ma --roles rig_roles.yaml) is baked onto its own joints (--skeleton roles: the 39 roles).
     Example: quadpipe bake --animal horse --controller trot --scene hill -o horse.glb -o horse.usdc --gait-report horse.gait.json
     """
+    source = animal_source(animal, limits, roles, mass)
     _bake_and_report(
-        animal, controller, scene, seconds, outputs, metrics, parameters, fps, gait_report, diagram, look_name(look)
+        source,
+        controller,
+        scene,
+        seconds,
+        outputs,
+        metrics,
+        parameters,
+        fps,
+        gait_report,
+        diagram,
+        look_name(look),
+        skeleton.value,
+        direction,
+        variation_of(variation, seed),
     )
 
 
 def _bake_and_report(
-    animal: str,
+    animal: AnimalSource,
     controller: str,
     scene: str,
     seconds: float,
@@ -90,17 +147,26 @@ def _bake_and_report(
     gait_report: Path | None,
     diagram: Path | None,
     look: LookName,
+    skeleton: SkeletonChoice,
+    direction: Path | None = None,
+    variation: Variation | None = None,
 ) -> None:
     """`simulate` and `bake`: check every output path first, bake, print the figures, write the gait
-    files: every file, or none (they are renamed into place together at the end)."""
+    files: every file, or none (they are renamed into place together at the end). A skeleton
+    file's notes and mass are printed first (`announce_animal`)."""
     from quadpipe.batch.bake import METRICS_SUFFIX, bake
+    from quadpipe.cli.library import announce_animal
     from quadpipe.core.atomic import transaction
     from quadpipe.core.limits import check_run
 
     check_run(seconds, fps, names=("--seconds", "--fps"))
     metrics_path = metrics or outputs[0].with_suffix(METRICS_SUFFIX)
     metrics_named = ("--metrics", metrics) if metrics else ("the default --metrics", metrics_path)
-    _check_bake_outputs(outputs, metrics_named, gait_report, diagram, [animal, controller, scene])
+    inputs = list(zip(INPUT_OPTIONS, [str(animal), controller, scene])) + (
+        [("--direction", str(direction))] if direction else []
+    )
+    _check_bake_outputs(outputs, metrics_named, gait_report, diagram, inputs)
+    announce_animal(animal)
     with transaction():
         result = bake(
             animal,
@@ -113,6 +179,9 @@ def _bake_and_report(
             places=parameter_places(parameters),
             fps=fps,
             look=look,
+            skeleton=skeleton,
+            direction=direction,
+            variation=variation,
         )
         print_warnings(result.warnings)
         typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
@@ -132,7 +201,11 @@ INPUT_OPTIONS = ("--animal", "--controller", "--scene")
 
 
 def _check_bake_outputs(
-    outputs: list[Path], metrics: tuple[str, Path], gait_report: Path | None, diagram: Path | None, inputs: list[str]
+    outputs: list[Path],
+    metrics: tuple[str, Path],
+    gait_report: Path | None,
+    diagram: Path | None,
+    inputs: list[tuple[str, str]],
 ) -> None:
     """Before simulating: every output a distinct file, apart from the inputs, of the right suffix, writable."""
     from quadpipe.core.atomic import check_writable
@@ -141,9 +214,7 @@ def _check_bake_outputs(
 
     named = [("-o", output) for output in outputs] + [metrics]
     named += [(option, path) for option, path in (("--gait-report", gait_report), ("--diagram", diagram)) if path]
-    check_distinct(
-        named, [(f"the {option} file", Path(name)) for option, name in zip(INPUT_OPTIONS, inputs, strict=True)]
-    )
+    check_distinct(named, [(f"the {option} file", Path(name)) for option, name in inputs])
     for output in outputs:
         check_output_path(output)
     for option, path in named[len(outputs) :]:
@@ -189,6 +260,10 @@ def batch(
         typer.Option("--scheduler", help="Run on a Dask cluster: its scheduler's address (tcp://host:8786)."),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars; only the summary.")] = False,
+    variation: Annotated[
+        float | None, typer.Option("--variation", help="Natural stride-to-stride variation of every job (default: 0).")
+    ] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of --variation (default: 0).")] = None,
 ) -> None:
     """Bake every animal x controller x scene of a plan in parallel, locally or on a Dask cluster.
 
@@ -202,7 +277,15 @@ def batch(
     from quadpipe.batch import plan_from, run_batch, summary_table
 
     chosen = plan_from(
-        plan, animals=animals, controllers=controllers, scenes=scenes, seconds=seconds, formats=formats, output=output
+        plan,
+        animals=animals,
+        controllers=controllers,
+        scenes=scenes,
+        seconds=seconds,
+        formats=formats,
+        output=output,
+        variation=variation,
+        seed=seed,
     )
     report = run_batch(chosen, workers=workers, force=force, scheduler=scheduler, progress=not quiet)
     Console().print(summary_table(report))
@@ -217,6 +300,9 @@ def preview(
     controller: ControllerOpt = "spine_walk",
     scene: SceneOpt = "flat",
     parameters: SetOpt = None,
+    limits: LimitsOpt = None,
+    roles: RolesOpt = None,
+    mass: MassOpt = None,
 ) -> None:
     """Open a window: watch the animal simulate live while you edit its controller (saved edits reload), or replay a clip.
 
@@ -235,7 +321,8 @@ def preview(
     else:
         from quadpipe.preview import LivePreview
 
-        model = LivePreview(animal, controller, scene, parse_parameters(parameters), parameter_places(parameters))
+        source = animal_source(animal, limits, roles, mass)
+        model = LivePreview(source, controller, scene, parse_parameters(parameters), parameter_places(parameters))
         title = f"quadpipe preview: {animal} / {controller} / {scene}"
     check_display()
     open_window(model, title)

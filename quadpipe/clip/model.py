@@ -18,6 +18,8 @@ from typing import Literal
 
 import numpy as np
 
+from quadpipe.anatomy.binding import RigBinding
+
 ShapeKind = Literal["capsule", "box", "sphere", "plane"]
 
 
@@ -81,6 +83,9 @@ class AnimalTrack:
         mass_kg: body mass.
         foot_contacts: (F, 4) booleans, legs in `quadpipe.anatomy.roles.LEGS` order.
         body: its skinned body mesh, None to draw the bones' shapes (see `quadpipe.bodies`).
+        rig: the source rig's own joints, when the animal came from a rig that is not simply
+            the 39 roles; exporters write the motion onto them (`quadpipe.clip.retarget`). A
+            track already on them has the rig's joint names as its `roles`.
     """
 
     name: str
@@ -96,17 +101,31 @@ class AnimalTrack:
     mass_kg: float
     foot_contacts: np.ndarray
     body: BodyMesh | None = None
+    rig: RigBinding | None = None
 
 
 @dataclass
 class PropTrack:
-    """A moving rigid object (thrown box, ball, capsule): its shape and per-frame pose."""
+    """A moving rigid object (thrown box, ball, capsule): its shape and per-frame pose.
+
+    Attributes:
+        present: (F,) booleans, whether the prop is in the scene at each frame (a thrown box
+            waits out of the scene until its throw, at a pose that means nothing); None when
+            it always is.
+    """
 
     name: str
     shape: Shape
     positions: np.ndarray
     rotations: np.ndarray
     mass_kg: float
+    present: np.ndarray | None = None
+
+    def presence(self) -> np.ndarray:
+        """(F,) booleans: whether the prop is in the scene at each frame."""
+        if self.present is None:
+            return np.ones(len(self.positions), dtype=bool)
+        return np.asarray(self.present, dtype=bool)
 
 
 @dataclass

@@ -276,6 +276,15 @@ MAX_TERRAIN_PIECES = Limit(
 )
 """Boxes the terrain of one scene is built from (stairs: one a step and the landing)."""
 
+MAX_SET_TRIANGLES = Limit(
+    "the number of triangles in a set file",
+    200_000,
+    "triangles",
+    "decimate the set (a walkable ground needs a few thousand triangles: the height field samples it anyway)",
+    env="QUADPIPE_MAX_SET_TRIANGLES",
+)
+"""Triangles of one mesh set (`terrain: [{type: mesh}]`), read and sampled into a height field."""
+
 MAX_THROWS = Limit(
     "the number of throws in the scene",
     1_000,

@@ -8,6 +8,9 @@ used. To add a format, write a module and add an entry to `CLIP_FORMATS`.
 
 Every write is atomic (`quadpipe.core.atomic`): a failed export never leaves a partial file
 behind, nor a `.gltf` without its `.bin`.
+
+`blender_script()` is the source of `blender_import.py`, the script that imports clips into
+Blender at their frame rate and range (`quadpipe blender-script`; docs/dcc.md).
 """
 
 from __future__ import annotations
@@ -15,7 +18,9 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -82,10 +87,26 @@ CLIP_FORMATS = FormatTable(
 )
 """Clip files quadpipe writes: suffix -> format (each writer takes the clip and the path)."""
 
+SkeletonChoice = Literal["rig", "roles"]
+"""Which joints a clip is written on: an imported rig's own (`rig`), or the 39 roles."""
+
+RIG_SUFFIXES = frozenset({".glb", ".gltf", ".usda", ".usdc", ".usdz", ".bvh"})
+"""The formats written on a rig's own joints with `skeleton="rig"` (the npz clip keeps the roles
+that analysis and rendering read)."""
+
 MESH_SUFFIXES = frozenset({".glb", ".gltf", ".usda", ".usdc", ".usdz"})
 """The formats that hold the animals' meshes: their bodies, or their bones for `look="bones"`."""
 
 Exporter = Callable[[Clip, Path], None]
+
+BLENDER_SCRIPT = "blender_import.py"
+"""The Blender import script shipped in this package (it runs inside Blender, on `bpy` alone)."""
+
+
+def blender_script() -> str:
+    """The source of the script that imports clips into Blender at their frame rate and range
+    (`quadpipe blender-script` writes it out; see `quadpipe.exporters.blender_import`)."""
+    return resources.files(__name__).joinpath(BLENDER_SCRIPT).read_text(encoding="utf-8")
 
 
 @dataclass(frozen=True)
@@ -113,7 +134,9 @@ def supported_formats() -> list[ExportFormat]:
     ]
 
 
-def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False, look: Look = "body") -> Path:
+def export_clip(
+    clip: Clip, path: str | Path, *, allow_partial: bool = False, look: Look = "body", skeleton: SkeletonChoice = "rig"
+) -> Path:
     """Write `clip` to `path`, in the format its suffix names.
 
     Args:
@@ -125,6 +148,9 @@ def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False, lo
         look: the animals' meshes in glTF and USD: their skinned bodies (`body`, built from the
             skeleton and the species' girths unless the clip carries them; see
             `quadpipe.bodies`), or their bones' shapes (`bones`).
+        skeleton: `rig` writes an animal imported from a rig on the rig's own joints (names,
+            hierarchy, extra bones; `quadpipe.clip.retarget`), `roles` on the 39 roles. Animals
+            whose skeleton is the 39 roles are written the same either way.
 
     Returns:
         The path written.
@@ -138,6 +164,10 @@ def export_clip(clip: Clip, path: str | Path, *, allow_partial: bool = False, lo
     clip = _exportable(clip, allow_partial, path)
     if path.suffix.lower() in MESH_SUFFIXES:
         clip = dress(clip, look)
+    if skeleton == "rig" and path.suffix.lower() in RIG_SUFFIXES:
+        from quadpipe.clip.retarget import on_rigs
+
+        clip = on_rigs(clip)
     if path.is_dir():
         raise QuadpipeError.single(
             "unwritable-output",

@@ -10,6 +10,11 @@ handedness is kept), lengths in **centimetres** (quadpipe's BVH importer reads c
 - `JOINT <role>` for every other bone, `OFFSET` = its rest offset from its parent's joint,
   three channels `Zrotation Xrotation Yrotation` (degrees): the joint's rotation relative to
   its parent is Rz * Rx * Ry, in that order, as BVH readers compose channels.
+- A joint whose offset from its parent changes during the clip (on a rig whose one bone
+  carries a bending chain of roles, see `quadpipe.clip.retarget`) has the root's six channels,
+  its position channels holding that offset; every other joint keeps its fixed OFFSET.
+- An animal written on its rig's own joints (`quadpipe.clip.retarget`) keeps the rig file's
+  units and axes instead (a z-up rig in millimetres comes back z-up in millimetres).
 - `End Site` under each leaf bone (head, tail tip, toes) at the bone's end.
 - `Frame Time` = 1 / fps. Angles are unwrapped frame to frame (no 360-degree jumps).
 
@@ -23,7 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from quadpipe.clip.kinematics import local_poses, quat_to_y_up, rest_offsets, to_matrix, to_y_up
+from quadpipe.anatomy.skeleton import UNIT_TO_METRES
+from quadpipe.clip.kinematics import Y_UP_AXES, local_poses, rest_offsets, to_matrix
 from quadpipe.clip.model import AnimalTrack, Clip
 from quadpipe.core.atomic import write_text
 from quadpipe.core.errors import QuadpipeError
@@ -32,6 +38,10 @@ CM_PER_M = 100.0
 
 ROOT_CHANNELS = "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"
 JOINT_CHANNELS = "CHANNELS 3 Zrotation Xrotation Yrotation"
+
+MOVING_JOINT_M = 1e-6
+"""A joint whose offset from its parent strays more than this (1 micrometre) from its rest offset
+during the clip gets position channels."""
 
 DECIMALS = 6
 """Digits after the point: 1e-6 cm and 1e-6 degrees."""
@@ -60,10 +70,11 @@ def bvh_text(clip: Clip) -> str:
             hint="export the scene to .glb or .usd instead, or simulate one animal for BVH",
         )
     track = clip.animals[0]  # roles run parents first: bone 0 is the root
+    moving = moving_joints(track)
     lines = ["HIERARCHY"]
-    _write_joint(track, 0, 0, lines)
+    _write_joint(track, 0, 0, moving, lines)
     lines += ["MOTION", f"Frames: {track.positions.shape[0]}", f"Frame Time: {1.0 / clip.fps:.8f}"]
-    lines += [_numbers(row) for row in motion_rows(track)]
+    lines += [_numbers(row) for row in motion_rows(track, moving)]
     return "\n".join(lines) + "\n"
 
 
@@ -72,22 +83,40 @@ def _numbers(values: np.ndarray) -> str:
     return " ".join(f"{v:.{DECIMALS}f}" for v in np.round(values, DECIMALS) + 0.0)
 
 
-def _write_joint(track: AnimalTrack, index: int, depth: int, lines: list[str]) -> None:
+def file_frame(track: AnimalTrack) -> tuple[np.ndarray, float]:
+    """Rows taking quadpipe's frame to the file's axes, and file units per metre: the rig's own
+    units and axes for a track on a rig's joints, else y up in centimetres."""
+    rig = track.rig
+    if rig is not None and track.roles == rig.names:
+        return rig.axes.T, 1.0 / UNIT_TO_METRES[rig.units]
+    return Y_UP_AXES, CM_PER_M
+
+
+def moving_joints(track: AnimalTrack) -> np.ndarray:
+    """(B,) whether each joint needs position channels: the root, and the joints whose offset
+    from their parent changes (by more than `MOVING_JOINT_M`)."""
+    translations, _ = local_poses(track)
+    strays = np.abs(translations - rest_offsets(track)).max(axis=(0, 2), initial=0.0)
+    return (track.parents < 0) | (strays > MOVING_JOINT_M)
+
+
+def _write_joint(track: AnimalTrack, index: int, depth: int, moving: np.ndarray, lines: list[str]) -> None:
     """Append the HIERARCHY block of joint `index` and, recursively, of its children."""
     pad = INDENT * depth
-    offset = to_y_up(rest_offsets(track)[index]) * CM_PER_M
+    axes, per_metre = file_frame(track)
+    offset = axes @ rest_offsets(track)[index] * per_metre
     root = track.parents[index] < 0
     lines += [
         f"{pad}{'ROOT' if root else 'JOINT'} {track.roles[index]}",
         f"{pad}{{",
         f"{pad}{INDENT}OFFSET {_numbers(offset)}",
-        f"{pad}{INDENT}{ROOT_CHANNELS if root else JOINT_CHANNELS}",
+        f"{pad}{INDENT}{ROOT_CHANNELS if moving[index] else JOINT_CHANNELS}",
     ]
     children = np.flatnonzero(track.parents == index)
     for child in children:
-        _write_joint(track, int(child), depth + 1, lines)
+        _write_joint(track, int(child), depth + 1, moving, lines)
     if children.size == 0:
-        end = to_y_up(track.rest_end[index] - track.rest_start[index]) * CM_PER_M
+        end = axes @ (track.rest_end[index] - track.rest_start[index]) * per_metre
         lines += [
             f"{pad}{INDENT}End Site",
             f"{pad}{INDENT}{{",
@@ -110,14 +139,21 @@ def hierarchy_order(track: AnimalTrack) -> list[int]:
     return order
 
 
-def motion_rows(track: AnimalTrack) -> np.ndarray:
-    """(F, 3 + 3B) channel values per frame, joints in hierarchy order."""
+def motion_rows(track: AnimalTrack, moving: np.ndarray) -> np.ndarray:
+    """(F, C) channel values per frame, joints in hierarchy order: each joint's position (the
+    root's and the `moving` ones') then its angles."""
     translations, rotations = local_poses(track)
-    angles = zxy_euler_degrees(to_matrix(quat_to_y_up(rotations)))
+    axes, per_metre = file_frame(track)
+    in_file = np.concatenate([rotations[..., :1], rotations[..., 1:] @ axes.T], axis=-1)  # a proper rotation
+    angles = zxy_euler_degrees(to_matrix(in_file))
     angles = np.degrees(np.unwrap(np.radians(angles), axis=0))
-    order = hierarchy_order(track)
-    root = to_y_up(translations[:, order[0]]) * CM_PER_M
-    return np.concatenate([root, angles[:, order].reshape(len(angles), -1)], axis=1)
+    positions = translations @ axes.T * per_metre
+    columns = []
+    for index in hierarchy_order(track):
+        if moving[index]:
+            columns.append(positions[:, index])
+        columns.append(angles[:, index])
+    return np.concatenate(columns, axis=1)
 
 
 def export_bvh(clip: Clip, path: Path) -> None:

@@ -3,15 +3,20 @@
 glTF is +Y up, +Z forward, metres; quadpipe's frame (+X forward, +Y left, +Z up) maps to it by
 a cyclic permutation of the axes (glTF x = left, y = up, z = forward), which keeps handedness.
 
-Each animal is one skinned mesh at the scene root: its body (`quadpipe.bodies`), each vertex
-weighted to up to four bones through JOINTS_0/WEIGHTS_0, or for `--look bones` all its bone
-shapes merged, each vertex weighted 1.0 to its bone; colours in COLOR_0. It has a skin whose inverse
-bind matrices are the bones' rest translations, and joint nodes in the 39-bone hierarchy with
-local TRS (named by role; `<animal>_<role>` when a clip holds several animals). One animation,
-`clip`, has a LINEAR translation and rotation channel per joint and per prop, keyed at every
-frame. Rotations stay in one hemisphere frame to frame, so no interpolation swings the long
-way round. The file is written with numpy, json and struct only, byte-identical for the same
-clip.
+The scene's root nodes are one per animal, one per prop and the terrain, so that importers
+(Blender) make one armature per animal, named after it, and leave props and terrain apart.
+An animal's root node (its name, no transform) holds its joint nodes in the 39-bone hierarchy
+with local TRS (named by role; `<animal>_<role>` when a clip holds several animals); its
+skinned mesh, `<animal>_body`, is a root node too (a skinned mesh ignores its node's
+transform, and glTF wants it at the root): the body (`quadpipe.bodies`), each vertex weighted
+to up to four bones through JOINTS_0/WEIGHTS_0, or for `--look bones` all its bone shapes
+merged, each vertex weighted 1.0 to its bone; colours in COLOR_0. Its skin's inverse bind
+matrices are the bones' rest translations. One animation, `clip`, has a LINEAR translation and
+rotation channel per joint and per prop, keyed at every frame; a prop absent from some frames
+(a thrown box before its throw) also has a STEP scale channel, 0 while absent, and holds still
+then (`quadpipe.exporters.layout`). Rotations stay in one hemisphere frame to frame, so no
+interpolation swings the long way round. The file is written with numpy, json and struct only,
+byte-identical for the same clip.
 """
 
 from __future__ import annotations
@@ -23,11 +28,13 @@ from typing import Any
 
 import numpy as np
 
-from quadpipe.clip.kinematics import continuous, local_poses, normalize, quat_to_y_up, rest_offsets, to_y_up
+from quadpipe.clip.bind import GLTF_BONE_AXIS, bound_poses
+from quadpipe.clip.kinematics import continuous, normalize, quat_to_y_up, to_matrix, to_y_up
 from quadpipe.clip.meshes import TriangleMesh, merge, shape_mesh, shapes_mesh
 from quadpipe.clip.model import AnimalTrack, Clip, PropTrack
 from quadpipe.core.atomic import transaction, write_bytes
 from quadpipe.core.version import __version__
+from quadpipe.exporters.layout import BODY_SUFFIX, held_poses, switches
 
 GLB_MAGIC = 0x46546C67
 GLB_VERSION = 2
@@ -122,8 +129,15 @@ class _Document:
         """A LINEAR channel moving `node`'s `path` (translation, rotation) through `values`, one per key."""
         if self.input is None:
             self.input = self.accessor(self.key_times, FLOAT, bounds=True)
+        self._channel(node, path, self.input, values, "LINEAR")
+
+    def step(self, node: int, path: str, frames: np.ndarray, values: np.ndarray) -> None:
+        """A STEP channel setting `node`'s `path` to `values` at `frames` (each held until the next)."""
+        self._channel(node, path, self.accessor(self.key_times[frames], FLOAT, bounds=True), values, "STEP")
+
+    def _channel(self, node: int, path: str, input: int, values: np.ndarray, interpolation: str) -> None:
         output = self.accessor(values, FLOAT)
-        self.samplers.append({"input": self.input, "output": output, "interpolation": "LINEAR"})
+        self.samplers.append({"input": input, "output": output, "interpolation": interpolation})
         self.channels.append({"sampler": len(self.samplers) - 1, "target": {"node": node, "path": path}})
 
     def finish(self, uri: str | None) -> dict[str, Any]:
@@ -188,28 +202,37 @@ def _primitive(
 
 
 def _add_animal(doc: _Document, track: AnimalTrack, prefix: str) -> None:
-    """An animal's joint nodes, skinned mesh, skin and animation channels (bone 0 is the root)."""
-    offsets = to_y_up(rest_offsets(track))
-    first = len(doc.json["nodes"])
+    """An animal's joint nodes, skinned mesh, skin and animation channels (bone 0 is the root).
+    Each joint's local +Y points along its bone at rest (`quadpipe.clip.bind`)."""
+    poses = bound_poses(track, GLTF_BONE_AXIS)
+    offsets = to_y_up(poses.rest_translations)
+    turns = _xyzw(quat_to_y_up(poses.rest_rotations))
+    first = len(doc.json["nodes"]) + 1
     joints = [first + index for index in range(len(track.roles))]
+    doc.node({"name": track.name, "children": [joints[r] for r in np.flatnonzero(track.parents < 0)]}, root=True)
     for index, role in enumerate(track.roles):
         children = [joints[c] for c in np.flatnonzero(track.parents == index)]
-        node = {"name": prefix + role, "translation": [float(v) for v in offsets[index]]}
+        node = {
+            "name": prefix + role,
+            "translation": [float(v) for v in offsets[index]],
+            "rotation": [float(v) for v in turns[index]],
+        }
         if children:
             node["children"] = children
-        doc.node(node, root=track.parents[index] < 0)
+        doc.node(node)
 
-    translations, rotations = local_poses(track)
     for index, joint in enumerate(joints):
-        doc.animate(joint, "translation", to_y_up(translations[:, index]))
-        doc.animate(joint, "rotation", _xyzw(quat_to_y_up(rotations[:, index])))
+        doc.animate(joint, "translation", to_y_up(poses.translations[:, index]))
+        doc.animate(joint, "rotation", _xyzw(quat_to_y_up(poses.rotations[:, index])))
 
     primitive = _body_primitive(doc, track) if track.body is not None else _bones_primitive(doc, track)
     if primitive is None:
         return
     mesh = doc.add("meshes", {"name": track.name, "primitives": [primitive]})
     inverse_bind = np.tile(np.eye(4), (len(joints), 1, 1))
-    inverse_bind[:, :3, 3] = -to_y_up(track.rest_start)
+    unturn = to_matrix(quat_to_y_up(poses.bind)).transpose(0, 2, 1)
+    inverse_bind[:, :3, :3] = unturn
+    inverse_bind[:, :3, 3] = -np.einsum("bij,bj->bi", unturn, to_y_up(track.rest_start))
     skin = {
         "name": track.name,
         "inverseBindMatrices": doc.accessor(inverse_bind.transpose(0, 2, 1).reshape(-1, 16), FLOAT),
@@ -218,7 +241,7 @@ def _add_animal(doc: _Document, track: AnimalTrack, prefix: str) -> None:
     }
     doc.skins.append(skin)
     extras = {"species": track.species, "pelvis_height_m": track.pelvis_height, "mass_kg": track.mass_kg}
-    doc.node({"name": track.name, "mesh": mesh, "skin": len(doc.skins) - 1, "extras": extras}, root=True)
+    doc.node({"name": track.name + BODY_SUFFIX, "mesh": mesh, "skin": len(doc.skins) - 1, "extras": extras}, root=True)
 
 
 def _bones_primitive(doc: _Document, track: AnimalTrack) -> dict | None:
@@ -242,22 +265,27 @@ def _body_primitive(doc: _Document, track: AnimalTrack) -> dict:
 
 
 def _add_prop(doc: _Document, prop: PropTrack) -> None:
-    """A prop: a node with its shape's mesh, moved by translation and rotation channels."""
+    """A prop: a node with its shape's mesh, moved by translation and rotation channels, and
+    scaled to 0 by a STEP channel while it is out of the scene."""
     mesh = doc.add("meshes", {"name": prop.name, "primitives": [_primitive(doc, shape_mesh(prop.shape))]})
-    positions = to_y_up(prop.positions)
-    rotations = _xyzw(quat_to_y_up(continuous(normalize(prop.rotations))))
-    node = doc.node(
-        {
-            "name": prop.name,
-            "mesh": mesh,
-            "translation": [float(v) for v in positions[0]],
-            "rotation": [float(v) for v in rotations[0]],
-            "extras": {"mass_kg": prop.mass_kg},
-        },
-        root=True,
-    )
-    doc.animate(node, "translation", positions)
-    doc.animate(node, "rotation", rotations)
+    held_positions, held_rotations = held_poses(prop)
+    positions = to_y_up(held_positions)
+    rotations = _xyzw(quat_to_y_up(continuous(normalize(held_rotations))))
+    frames, present = switches(prop)
+    node = {
+        "name": prop.name,
+        "mesh": mesh,
+        "translation": [float(v) for v in positions[0]],
+        "rotation": [float(v) for v in rotations[0]],
+        "extras": {"mass_kg": prop.mass_kg},
+    }
+    if not present[0]:
+        node["scale"] = [0.0, 0.0, 0.0]
+    index = doc.node(node, root=True)
+    doc.animate(index, "translation", positions)
+    doc.animate(index, "rotation", rotations)
+    if len(frames) > 1 or not present[0]:
+        doc.step(index, "scale", frames, np.repeat(present.astype(np.float32)[:, None], 3, axis=1))
 
 
 def _xyzw(quats: np.ndarray) -> np.ndarray:

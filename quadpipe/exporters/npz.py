@@ -6,7 +6,9 @@ A NumPy zip archive (`numpy.load` opens it; no pickles):
   species, roles, sizes and shapes of the animals, the props and the terrain, sensor names;
 - `animal<i>.<field>`: `parents`, `rest_start`, `rest_end`, `positions` (F, B, 3) in metres,
   `rotations` (F, B, 4) as (w, x, y, z), `foot_contacts` (F, 4), for the i-th animal;
-- `prop<i>.positions`, `prop<i>.rotations`; `sensor<k>` for the k-th sensor in the header.
+- `prop<i>.positions`, `prop<i>.rotations`, and `prop<i>.present` (F,) for a prop that is not
+  in the scene on every frame (a thrown box before its throw); `sensor<k>` for the k-th sensor
+  in the header.
 
 All in quadpipe's frame: metres, +X forward, +Y left, +Z up. Archive members carry a fixed
 timestamp, so the same clip gives the same bytes.
@@ -47,6 +49,9 @@ ANIMAL_SHAPES: dict[str, tuple[str | int, ...]] = {
 
 PROP_SHAPES: dict[str, tuple[str | int, ...]] = {"positions": ("F", 3), "rotations": ("F", 4)}
 """Each prop array's shape: F frames."""
+
+PRESENT_SHAPE: tuple[str | int, ...] = ("F",)
+"""The shape of a prop's optional `present` array (absent from the archive: always present)."""
 
 ANIMAL_ARRAYS = tuple(ANIMAL_SHAPES)
 PROP_ARRAYS = tuple(PROP_SHAPES)
@@ -98,6 +103,8 @@ def _arrays(clip: Clip) -> dict[str, np.ndarray]:
         arrays.update({f"animal{i}.{name}": getattr(track, name) for name in ANIMAL_ARRAYS})
     for i, prop in enumerate(clip.props):
         arrays.update({f"prop{i}.{name}": getattr(prop, name) for name in PROP_ARRAYS})
+        if prop.present is not None:
+            arrays[f"prop{i}.present"] = np.asarray(prop.present, dtype=bool)
     arrays.update({f"sensor{k}": values for k, values in enumerate(clip.sensors.values())})
     return arrays
 
@@ -190,6 +197,11 @@ def _clip_problem(clip: Clip) -> str | None:
         for i, track in enumerate(clip.props)
         for name, shape in PROP_SHAPES.items()
     ]
+    arrays += [
+        (f"prop{i}.present", track.present, PRESENT_SHAPE, 0)
+        for i, track in enumerate(clip.props)
+        if track.present is not None
+    ]
     for name, array, shape, bones in arrays:
         expected = tuple(frames if size == "F" else bones if size == "B" else size for size in shape)
         if array.shape != expected:
@@ -220,6 +232,7 @@ def _clip(header: dict[str, Any], archive: Any) -> Clip:
             name=info["name"],
             shape=_shape(info["shape"]),
             mass_kg=info["mass_kg"],
+            present=archive.get(f"prop{i}.present"),
             **{name: archive[f"prop{i}.{name}"] for name in PROP_ARRAYS},
         )
         for i, info in enumerate(header["props"])

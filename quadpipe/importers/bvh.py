@@ -1,4 +1,4 @@
-"""BVH (Biovision hierarchy) skeletons: the HIERARCHY section; MOTION is ignored.
+"""BVH (Biovision hierarchy) skeletons: the HIERARCHY section, and one frame of MOTION on request.
 
     HIERARCHY
     ROOT Bip01 Pelvis
@@ -20,9 +20,13 @@
     ...
 
 A joint's rest position is the sum of the OFFSETs from the root down to it; an End Site
-gives its joint's `end`. Joint names run to the end of their line (`Bip01 L Thigh`). BVH
-declares neither units nor axes: quadpipe reads centimetres, y up (a role map can say
-otherwise), and joints carry no main axis.
+gives its joint's `end`. Joint names run to the end of their line (`Bip01 L Thigh`). With
+`rest_frame=N` the pose is frame N of the MOTION section instead (frames count from 0): each
+joint turns by its rotation channels in the order its CHANNELS line lists them (intrinsic,
+`Zrotation Xrotation Yrotation` is Rz Rx Ry), and position channels replace its OFFSET.
+BVH declares neither units nor axes: quadpipe reads y up and centimetres, or metres when the
+skeleton spans under `METRE_GUESS_SPAN` units (said in a warning); a role map's `units:` or
+the `units` argument says otherwise. Joints carry no main axis.
 """
 
 from __future__ import annotations
@@ -35,11 +39,15 @@ from typing import NoReturn
 
 from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
 from quadpipe.core import limits
-from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.textfiles import read_text
+from quadpipe.importers.bvh_motion import Motion, pose_at
 
 CHANNEL_NAMES = {f"{axis}{kind}" for axis in "xyz" for kind in ("position", "rotation")}
 """Valid CHANNELS entries, lower-cased."""
+
+METRE_GUESS_SPAN = 10.0
+"""A skeleton spanning less than this many file units is read in metres (10 cm is no quadruped)."""
 
 _WORD = re.compile(r"\S+")
 
@@ -64,6 +72,9 @@ class _Joint:
     position: Vector | None = None
     end: Vector | None = None
     channels_seen: bool = False
+    offset: Vector = (0.0, 0.0, 0.0)
+    end_offset: Vector | None = None
+    channels: tuple[str, ...] = ()
 
     def record(self) -> JointRecord:
         """The joint as read, once parsed (the parser requires every joint's OFFSET)."""
@@ -183,8 +194,8 @@ class _Parser:
                 self.require_offset(token, joint)
                 stack.pop()
             elif keyword_text == "OFFSET":
-                offset = self.offset(joint, f"OFFSET of {joint.name!r}")
-                joint.position = _moved(joint.origin, offset)
+                joint.offset = self.offset(joint, f"OFFSET of {joint.name!r}")
+                joint.position = _moved(joint.origin, joint.offset)
             elif keyword_text == "CHANNELS":
                 self.channels(token, joint)
             elif keyword_text == "JOINT":
@@ -251,6 +262,7 @@ class _Parser:
                 f"CHANNELS says {count_token.text} but lists {len(names)} channel(s)",
                 "the count must match the channel names on the same line",
             )
+        joint.channels = tuple(name.text.lower() for name in names)
         for name in names:
             if name.text.lower() not in CHANNEL_NAMES:
                 self.fail(
@@ -277,8 +289,8 @@ class _Parser:
                 "bvh-syntax",
                 f"expected OFFSET in the End Site of {joint.name!r}, found {offset_token.text!r}",
             )
-        offset = self.offset(joint, f"End Site of {joint.name!r}")
-        joint.end = _moved(position, offset)
+        joint.end_offset = self.offset(joint, f"End Site of {joint.name!r}")
+        joint.end = _moved(position, joint.end_offset)
         closing = self.take(joint)
         if closing.text != "}":
             self.fail(
@@ -288,16 +300,50 @@ class _Parser:
                 "an End Site holds only its OFFSET",
             )
 
+    def motion(self) -> Motion:
+        """The MOTION section's tokens (after `parse`), for `pose_at`."""
+        return Motion(self.source, self.tokens[self.index :], len(self.lines))
 
-def read_skeleton(path: str | Path) -> RawSkeleton:
-    """Read the joint hierarchy of a BVH file (centimetres, y up, no axes).
+
+def read_skeleton(path: str | Path, *, rest_frame: int | None = None, units: str | None = None) -> RawSkeleton:
+    """Read the joint hierarchy of a BVH file (y up, no axes), posed at `rest_frame` if given.
+
+    Args:
+        path: the file.
+        rest_frame: a frame of the MOTION section to take as the rest pose (from 0).
+        units: the file's length unit; None guesses centimetres or metres from its size.
 
     Raises:
         QuadpipeError: no HIERARCHY, a cut-off file, unbalanced braces, a bad number, a
-            CHANNELS line that does not add up, or anything else out of place.
+            CHANNELS line that does not add up, a MOTION section without that frame, or
+            anything else out of place.
     """
     path = Path(path)
     text = read_text(path, limits.MAX_SKELETON_FILE_BYTES)
-    joints = _Parser(str(path), text).parse()
+    parser = _Parser(str(path), text)
+    joints = parser.parse()
     records = tuple(j.record() for j in joints)
-    return RawSkeleton(name=path.name.split(".")[0], source=str(path), joints=records, units="cm", up="y")
+    if rest_frame is not None:
+        records = pose_at(parser.motion(), joints, records, rest_frame)
+    warnings: tuple[Issue, ...] = ()
+    if units is None:
+        units, warnings = _guess_units(str(path), records)
+    return RawSkeleton(
+        name=path.name.split(".")[0], source=str(path), joints=records, units=units, up="y", warnings=warnings
+    )
+
+
+def _guess_units(source: str, records: tuple[JointRecord, ...]) -> tuple[str, tuple[Issue, ...]]:
+    """Centimetres, or metres (with a warning saying so) for a skeleton spanning few units."""
+    points = [p for j in records for p in (j.position, j.end) if p is not None]
+    span = max(max(p[axis] for p in points) - min(p[axis] for p in points) for axis in range(3))
+    if span >= METRE_GUESS_SPAN:
+        return "cm", ()
+    warning = Issue(
+        "bvh-units-guessed",
+        f"BVH declares no unit and the skeleton spans {span:.3g} units: read as metres",
+        Location(source),
+        "a role map with `units: cm` (or in, mm, ft) says otherwise",
+        severity="warning",
+    )
+    return "m", (warning,)

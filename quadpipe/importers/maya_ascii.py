@@ -26,6 +26,7 @@ bone's end from its single child.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,7 +35,7 @@ import numpy as np
 
 from quadpipe.anatomy.skeleton import JointRecord, RawSkeleton
 from quadpipe.core import limits
-from quadpipe.core.errors import Location, QuadpipeError, did_you_mean
+from quadpipe.core.errors import Issue, Location, QuadpipeError, did_you_mean
 from quadpipe.core.textfiles import read_text
 from quadpipe.importers.maya_matrices import euler_matrix, scale_matrix, shear_matrix, translation_matrix
 from quadpipe.importers.maya_mel import MelScript, Token, flag_values, strip_type_flag
@@ -71,6 +72,17 @@ ROTATE_ORDERS = ("xyz", "yzx", "zxy", "xzy", "yxz", "zyx")
 TRACKED_TYPES = ("joint", "transform")
 """Node types that make up the skeleton's DAG; every other node is skipped."""
 
+CONSTRAINT_TYPES = ("parentConstraint", "pointConstraint")
+"""Constraints this reader evaluates (with one target): they place the joint they drive, by
+the target's world matrix and the `.tg[0].tot`/`.tg[0].tor` offset (parent), or its world
+position and the `.o` offset (point)."""
+
+CONSTRAINT_OUTPUTS = {"ct", "ctx", "cty", "ctz", "cr", "crx", "cry", "crz"}
+"""A constraint's output plugs (constraintTranslate, constraintRotate)."""
+
+TARGET_PLUG = re.compile(r"^(?:tg|target)\[(\d+)\]\.")
+"""A constraint's input plug from its target `index`: `tg[0].tt`, `tg[0].tpm`, ..."""
+
 _VECTORS = {
     "t": "translate",
     "r": "rotate",
@@ -81,9 +93,12 @@ _VECTORS = {
     "sp": "scalePivot",
     "rpt": "rotatePivotTranslate",
     "spt": "scalePivotTranslate",
+    "tg[0].tot": "tg[0].targetOffsetTranslate",
+    "tg[0].tor": "tg[0].targetOffsetRotate",
+    "o": "offset",
 }
 _SHEAR_PARTS = {"shxy": "shearXY", "shxz": "shearXZ", "shyz": "shearYZ"}
-ANGULAR_ATTRIBUTES = {"r", "jo", "ra"}
+ANGULAR_ATTRIBUTES = {"r", "jo", "ra", "tg[0].tor"}
 """Vector attributes holding angles (in the file's angular unit)."""
 
 ONE_VECTORS = {"s"}
@@ -212,7 +227,7 @@ class _Reader(MelScript):
         kind = next((t.text for t in statement[1:] if not t.text.startswith("-") and t not in flags.values()), None)
         name = next((v for f, v in flags.items() if f.text in ("-n", "-name")), None)
         parent_ref = next((v for f, v in flags.items() if f.text in ("-p", "-parent")), None)
-        if kind not in TRACKED_TYPES:
+        if kind not in TRACKED_TYPES + CONSTRAINT_TYPES:
             self.current = None
             return
         if name is None:
@@ -246,6 +261,8 @@ class _Reader(MelScript):
         if node is None:
             return
         values = strip_type_flag(statement[attr_index + 1 :])
+        if not values:
+            return  # `setAttr -l on ".tx";`, `setAttr -av ".rx";`: flags only, the value stays
         if attr in ATTRIBUTES:
             self.set_vector(node, target_token, attr, values)
         elif attr in ROTATE_ORDER_NAMES:
@@ -349,12 +366,39 @@ class _Reader(MelScript):
 
     # -- result ---------------------------------------------------------------------------
 
+    def link_drivers(self) -> _Drivers:
+        """Direct connections copied into the attributes they drive, and the constraints that
+        place nodes; what cannot be evaluated is listed."""
+        drivers = _Drivers()
+        for source, target in self.connections:
+            source_ref, _, source_attr = source.text.partition(".")
+            target_ref, _, target_attr = target.text.partition(".")
+            source_node, target_node = self.find(source_ref), self.find(target_ref)
+            if target_node is None:
+                continue
+            if target_node.kind in CONSTRAINT_TYPES:
+                index = TARGET_PLUG.match(target_attr)
+                if index is not None and source_node is not None and source_node.kind in TRACKED_TYPES:
+                    drivers.targets.setdefault(id(target_node), {})[int(index.group(1))] = source_node
+                continue
+            if target_attr not in ATTRIBUTES or target_node.kind not in TRACKED_TYPES:
+                continue
+            if source_node is not None and source_node.kind in CONSTRAINT_TYPES and source_attr in CONSTRAINT_OUTPUTS:
+                drivers.constrained[id(target_node)] = source_node
+            elif (
+                source_node is not None
+                and source_attr in ATTRIBUTES
+                and _copy(source_node, source_attr, target_node, target_attr)
+            ):
+                continue
+            else:
+                drivers.unevaluated.append(f"{target.text} (from {source.text})")
+        return drivers
+
     def skeleton(self, name: str) -> RawSkeleton:
         self.link_inverse_scales()
-        worlds: dict[int, np.ndarray] = {}
-        for node in self.nodes:
-            parent_world = worlds[id(node.parent)] if node.parent else np.eye(4)
-            worlds[id(node)] = local_matrix(node) @ parent_world
+        drivers = self.link_drivers()
+        worlds = {id(node): drivers.world(node) for node in self.nodes}
         joints = [n for n in self.nodes if n.kind == "joint"]
         names = _unique_names(joints)
         records = []
@@ -381,7 +425,87 @@ class _Reader(MelScript):
                 file=self.source,
                 hint='a skeleton is made of createNode joint -n "..." statements',
             )
-        return RawSkeleton(name=name, source=self.source, joints=tuple(records), units=self.unit, up="y")
+        return RawSkeleton(
+            name=name,
+            source=self.source,
+            joints=tuple(records),
+            units=self.unit,
+            up="y",
+            warnings=drivers.warnings(self.source),
+        )
+
+
+def _copy(source: _Node, source_attr: str, target: _Node, target_attr: str) -> bool:
+    """Copy a connected attribute's value (`ctrl.t` -> `joint.t`, `ctrl.ry` -> `joint.rx`);
+    False when the plugs do not have the same shape (a vector into one component)."""
+    source_key, source_index = ATTRIBUTES[source_attr]
+    target_key, target_index = ATTRIBUTES[target_attr]
+    if (source_index is None) != (target_index is None):
+        return False
+    value = source.vector(source_key)
+    current = list(target.vector(target_key))
+    if target_index is None:
+        current = list(value)
+    else:
+        current[target_index] = float(value[source_index])
+    target.values[target_key] = current
+    return True
+
+
+@dataclass
+class _Drivers:
+    """Constraints placing nodes, their targets, and the driven plugs that stay as saved."""
+
+    constrained: dict[int, _Node] = field(default_factory=dict)
+    targets: dict[int, dict[int, _Node]] = field(default_factory=dict)
+    unevaluated: list[str] = field(default_factory=list)
+    worlds: dict[int, np.ndarray] = field(default_factory=dict)
+    evaluating: set[int] = field(default_factory=set)
+
+    def world(self, node: _Node) -> np.ndarray:
+        """A node's world matrix: its parent's times its own, or what its constraint gives."""
+        if id(node) in self.worlds:
+            return self.worlds[id(node)]
+        self.evaluating.add(id(node))
+        parent_world = self.world(node.parent) if node.parent else np.eye(4)
+        world = local_matrix(node) @ parent_world
+        constraint = self.constrained.get(id(node))
+        if constraint is not None:
+            world = self.constrain(node, constraint, world)
+        self.evaluating.discard(id(node))
+        self.worlds[id(node)] = world
+        return world
+
+    def constrain(self, node: _Node, constraint: _Node, world: np.ndarray) -> np.ndarray:
+        """`world` as the constraint changes it (unchanged, and listed, when it cannot be evaluated)."""
+        targets = self.targets.get(id(constraint), {})
+        target = targets.get(0)
+        if len(targets) != 1 or target is None or id(target) in self.evaluating:
+            why = f"{len(targets)} targets" if len(targets) != 1 else "its target depends on the node itself"
+            self.unevaluated.append(f"{node.name} (by {constraint.kind} {constraint.name!r}: {why})")
+            return world
+        target_world = self.world(target)
+        if constraint.kind == "parentConstraint":
+            offset = euler_matrix(constraint.vector("tg[0].tor")) @ translation_matrix(constraint.vector("tg[0].tot"))
+            return offset @ target_world
+        placed = world.copy()
+        placed[3, :3] = target_world[3, :3] + constraint.vector("o")
+        return placed
+
+    def warnings(self, source: str) -> tuple[Issue, ...]:
+        """One warning naming every driven plug read at its saved value."""
+        if not self.unevaluated:
+            return ()
+        shown = "; ".join(self.unevaluated[:8]) + (" ..." if len(self.unevaluated) > 8 else "")
+        return (
+            Issue(
+                "ma-driven-joints",
+                f"{len(self.unevaluated)} plug(s) driven by nodes this reader does not evaluate, read as saved: {shown}",
+                Location(source),
+                "bake the rig's pose into the joints in Maya (or delete those constraints/curves) if it looks wrong",
+                severity="warning",
+            ),
+        )
 
 
 def _unique_names(joints: list[_Node]) -> dict[int, str]:

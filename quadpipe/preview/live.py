@@ -38,6 +38,7 @@ from quadpipe.preview.throws import POOL_SIZE, ThrowKind, ThrowPool, add_throw_p
 from quadpipe.world.goals import vector_text
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.controllers.language.compiler import CompiledController
     from quadpipe.controllers.runtime.runtime import ControllerRuntime
     from quadpipe.sim.simulation import Simulation
@@ -123,7 +124,7 @@ class LivePreview(Preview):
     """An animal simulated live under a controller, its files watched for edits.
 
     Args:
-        animal: animal name or config path.
+        animal: animal name, config or skeleton file, or an `AnimalSource` (a skeleton file with its options).
         controller: controller name or YAML path.
         scene: scene name or YAML path (None: `flat`).
         parameters: controller parameter overrides (values as written in YAML).
@@ -139,7 +140,7 @@ class LivePreview(Preview):
 
     def __init__(
         self,
-        animal: str,
+        animal: str | AnimalSource,
         controller: str,
         scene: str | None = None,
         parameters: Mapping[str, str] | None = None,

@@ -20,7 +20,7 @@ The modules, in the order a file is made:
 - `gl`: the OpenGL backend (`MUJOCO_GL`) and a context of it;
 - `poses`: what a picture takes from the clip (its length unit, poses held through NaN);
 - `camera`: `Camera` (how the clip is framed) and each frame's `CameraView`;
-- `overlays`: `Overlay` layers and the built-in ones (foot contacts, pelvis trail);
+- `overlays`: `Overlay` layers and the built-in ones (foot contacts, pelvis trail, a directed clip's path);
 - `display`: the display model (`display_spec`);
 - `renderer`: `ClipRenderer`, which draws frames, and `render_fps`;
 - `sheet`: contact sheets;
@@ -29,7 +29,7 @@ The modules, in the order a file is made:
 
 from __future__ import annotations
 
-from quadpipe.render.camera import Camera, CameraView, camera_views
+from quadpipe.render.camera import DEFAULT_VIEW, VIEWS, Camera, CameraView, camera_views, view_camera
 from quadpipe.render.display import SHEET_MULTISAMPLES, SUN_DIRECTION, VIDEO_MULTISAMPLES, display_spec
 from quadpipe.render.gl import GL_VARIABLE, gl_backend  # first: sets MUJOCO_GL
 from quadpipe.render.overlays import (
@@ -56,6 +56,7 @@ __all__ = [
     "BUILTIN_OVERLAYS",
     "DEFAULT_HEIGHT",
     "DEFAULT_OVERLAYS",
+    "DEFAULT_VIEW",
     "DEFAULT_WIDTH",
     "GL_VARIABLE",
     "RENDER_FORMATS",
@@ -64,6 +65,7 @@ __all__ = [
     "SUN_DIRECTION",
     "TRAIL_SECONDS",
     "VIDEO_MULTISAMPLES",
+    "VIEWS",
     "Camera",
     "CameraView",
     "ClipRenderer",
@@ -81,4 +83,5 @@ __all__ = [
     "sheet_frames",
     "stamp_time",
     "trail_overlay",
+    "view_camera",
 ]

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
 
-from quadpipe.clip.model import Clip
+from quadpipe.clip.model import AnimalTrack, Clip
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.render.poses import clip_scale, finite_hold
 
@@ -19,6 +19,25 @@ SMOOTHING_PAD_TIME_CONSTANTS = 4.0
 """Length of the reflected padding at each end of a tracked path, in filter time constants."""
 
 CAMERA_MODES = ("track", "fixed")
+
+MIN_BODY_SIZES = 1.6
+"""The camera stays at least this many body sizes (`body_size`) from its target. Distances are
+in pelvis heights, and most bodies are about 2 HP long (the dog's 2.2: 4.5 HP is two of them),
+but the rat's is 7 HP long and 2.5 HP high: 4.5 HP put the camera inside it."""
+
+VIEWS: dict[str, tuple[float, float]] = {
+    "three-quarter": (-120.0, -20.0),
+    "side": (-90.0, -8.0),
+    "rear": (0.0, -8.0),
+    "front": (180.0, -8.0),
+    "top": (0.0, -89.0),
+}
+"""Named views of an animal heading +X: (azimuth, elevation) in degrees, as `Camera` takes them.
+`side` looks at its left side (the camera on +Y, looking towards -Y), `rear` from behind
+(looking along +X), `front` from ahead, `top` from above (its head up the picture: -90 would
+make MuJoCo's free camera's up vector undefined), `three-quarter` from its front left, the default."""
+
+DEFAULT_VIEW = "three-quarter"
 
 
 @dataclass(frozen=True)
@@ -84,6 +103,20 @@ class CameraView:
         return pixels
 
 
+def view_camera(view: str, camera: Camera = Camera()) -> Camera:
+    """`camera` turned to one of the named `VIEWS` (its mode, distance and smoothing kept).
+
+    Raises:
+        QuadpipeError: code `bad-camera` for a name that is not one of `VIEWS`.
+    """
+    if view not in VIEWS:
+        raise QuadpipeError.single(
+            "bad-camera", f"view {view!r} is not one of {', '.join(VIEWS)}", hint=f"e.g. --view {DEFAULT_VIEW}"
+        )
+    azimuth, elevation = VIEWS[view]
+    return replace(camera, azimuth_deg=azimuth, elevation_deg=elevation)
+
+
 def camera_views(clip: Clip, camera: Camera = Camera()) -> list[CameraView]:
     """The camera of every clip frame.
 
@@ -91,7 +124,7 @@ def camera_views(clip: Clip, camera: Camera = Camera()) -> list[CameraView]:
         QuadpipeError: code `bad-camera` for an unknown mode or a distance that is not positive.
 
     The camera aims at the centroid of the first animal's joints (the pelvis alone would put
-    the animal half a body off-centre). Tracking smooths that path with an exponential filter
+    the animal half a body off-centre), from at least `MIN_BODY_SIZES` of its body sizes. Tracking smooths that path with an exponential filter
     run forwards then backwards over the whole clip: it does not jitter with the gait, and,
     unlike a one-way filter, does not lag behind a running animal. Distances scale with the
     animal's pelvis height, so a rat and an elephant fill the frame alike.
@@ -99,13 +132,21 @@ def camera_views(clip: Clip, camera: Camera = Camera()) -> list[CameraView]:
     check_camera(camera)
     scale = clip_scale(clip)
     path = finite_hold(clip.animals[0].positions).mean(axis=1)
-    distance = camera.distance_hp * scale
+    distance = max(camera.distance_hp * scale, MIN_BODY_SIZES * body_size(clip.animals[0]))
     if camera.mode == "track":
         targets = _smooth_both_ways(path, camera.smoothing_s * clip.fps)
     else:
         target, distance = _fixed_target(path, camera, distance)
         targets = np.repeat(target[None], clip.frame_count, axis=0)
     return [CameraView(target, distance, camera.azimuth_deg, camera.elevation_deg) for target in targets]
+
+
+def body_size(track: AnimalTrack) -> float:
+    """An animal's size at rest, metres: the larger of its horizontal length and its height,
+    of its skinned body if it has one, else of its bones."""
+    points = track.body.vertices if track.body is not None else np.concatenate([track.rest_start, track.rest_end])
+    extent = points.max(axis=0) - points.min(axis=0)
+    return float(max(math.hypot(extent[0], extent[1]), extent[2]))
 
 
 def check_camera(camera: Camera) -> None:

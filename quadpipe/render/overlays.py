@@ -1,5 +1,5 @@
 """Overlays: per-frame lines, arrows and points drawn over a clip, and the built-in ones (foot
-contacts, the pelvis trail), added to each frame's scene as decoration geoms."""
+contacts, the pelvis trail, a directed clip's path), added to each frame's scene as decoration geoms."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from quadpipe.clip.kinematics import rotate
 from quadpipe.clip.model import Clip
 from quadpipe.core.errors import QuadpipeError, did_you_mean
 from quadpipe.render.poses import clip_scale, finite_hold
+from quadpipe.world.timeline import DIRECTION_KEY, timelines_from_json
 
 if TYPE_CHECKING:
     import mujoco
@@ -39,7 +40,12 @@ TRAIL_WIDTH_HP = 0.02
 TRAIL_SECONDS = 3.0
 """Pelvis trail: the last seconds of each animal's pelvis path, as an orange line."""
 
-DEFAULT_OVERLAYS = ("contacts", "trail")
+PATH_RGBA = (0.2, 0.5, 1.0, 0.8)
+PATH_WIDTH_HP = 0.03
+PATH_LIFT_HP = 0.01
+"""A directed clip's path: a blue line on the floor plane (this high above it, in HP)."""
+
+DEFAULT_OVERLAYS = ("contacts", "trail", "path")
 """The built-in overlays drawn unless the caller says otherwise."""
 
 
@@ -122,7 +128,30 @@ def trail_overlay(clip: Clip) -> Overlay:
     return Overlay("trail", "line", starts, ends, TRAIL_RGBA, TRAIL_WIDTH_HP * clip_scale(clip))
 
 
-BUILTIN_OVERLAYS: dict[str, Callable[[Clip], Overlay]] = {"contacts": contact_overlay, "trail": trail_overlay}
+def path_overlay(clip: Clip) -> Overlay:
+    """A directed clip's paths (docs/direction.md) as blue lines on the floor plane, every
+    frame; nothing for a clip without a direction."""
+    timelines = timelines_from_json(clip.metadata[DIRECTION_KEY]) if DIRECTION_KEY in clip.metadata else {}
+    lift = PATH_LIFT_HP * clip_scale(clip)
+    lines = [np.column_stack([t.points, np.full(len(t.points), lift)]) for t in timelines.values()]
+    starts = np.concatenate([line[:-1] for line in lines]) if lines else np.zeros((0, 3))
+    ends = np.concatenate([line[1:] for line in lines]) if lines else np.zeros((0, 3))
+    frames = (clip.frame_count, len(starts), 3)
+    return Overlay(
+        "path",
+        "line",
+        np.broadcast_to(starts, frames),
+        np.broadcast_to(ends, frames),
+        PATH_RGBA,
+        PATH_WIDTH_HP * clip_scale(clip),
+    )
+
+
+BUILTIN_OVERLAYS: dict[str, Callable[[Clip], Overlay]] = {
+    "contacts": contact_overlay,
+    "trail": trail_overlay,
+    "path": path_overlay,
+}
 """Overlays quadpipe computes from the clip itself, by name."""
 
 

@@ -74,6 +74,7 @@ class Recorder:
         self._positions: list[np.ndarray] = []
         self._rotations: list[np.ndarray] = []
         self._contacts: list[np.ndarray] = []
+        self._present: list[np.ndarray] = []
         self._extras: dict[str, list[np.ndarray]] = {}
 
     def capture(self, data: mujoco.MjData, extras: dict[str, np.ndarray] | None = None) -> None:
@@ -86,6 +87,7 @@ class Recorder:
         self._positions.append(data.xpos.copy())
         self._rotations.append(data.xquat.copy())
         self._contacts.append(self._feet_down(data))
+        self._present.append(self._props_present())
         for key, value in (extras or {}).items():
             self._extras.setdefault(key, []).append(np.array(value, dtype=float))
 
@@ -98,11 +100,18 @@ class Recorder:
             down[legs[legs >= 0]] = True
         return down
 
+    def _props_present(self) -> np.ndarray:
+        """Which props are in the scene now: those that collide (a thrown object waits, parked
+        without collisions, until its throw; `quadpipe.world.throws`)."""
+        props = np.asarray(self._props, dtype=int)
+        return (self.model.body_contype[props] | self.model.body_conaffinity[props]) != 0
+
     def clip(self, metadata: dict[str, str] | None = None) -> Clip:
         """The frames recorded so far, as a `Clip`."""
         positions = np.array(self._positions).reshape(-1, self.model.nbody, 3)
         rotations = np.array(self._rotations).reshape(-1, self.model.nbody, 4)
         contacts = np.array(self._contacts).reshape(len(self._positions), -1)
+        present = np.array(self._present, dtype=bool).reshape(len(self._positions), len(self._props))
         animals = [
             self._animal_track(index, placement, positions, rotations, contacts)
             for index, placement in enumerate(self.placements)
@@ -114,8 +123,9 @@ class Recorder:
                 positions=positions[:, body],
                 rotations=rotations[:, body],
                 mass_kg=float(self.model.body_mass[body]),
+                present=None if present[:, index].all() else present[:, index],
             )
-            for body in self._props
+            for index, body in enumerate(self._props)
         ]
         terrain = [
             geom_shape(self.model, geom)
@@ -151,4 +161,5 @@ class Recorder:
             pelvis_height=placement.built.animal.pelvis_height,
             mass_kg=placement.built.animal.mass_kg,
             foot_contacts=contacts[:, index * len(LEGS) : (index + 1) * len(LEGS)],
+            rig=skeleton.rig,
         )

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, overload
 
 import mujoco
@@ -27,10 +28,13 @@ from quadpipe.sim import health as physics
 from quadpipe.sim.metrics import clip_metrics
 from quadpipe.sim.recording import Recorder
 from quadpipe.world.placement import Placement
+from quadpipe.world.timeline import DIRECTION_KEY, timelines_json
 
 if TYPE_CHECKING:
+    from quadpipe.animals.library import AnimalSource
     from quadpipe.controllers.language.compiler import CompiledController
     from quadpipe.controllers.runtime.runtime import ControllerRuntime
+    from quadpipe.controllers.runtime.variation import Variation
     from quadpipe.world import SceneSetup
 
 FPS_TOLERANCE = 1e-9
@@ -95,20 +99,27 @@ class Simulation:
         setup: the scene built for its animals; its `spec` is compiled here.
         extra_controllers: more `Controller`s run after the runtime (tests push with these).
         metadata: kept in every recorded clip.
+        variation: seeded stride-to-stride variation of the controllers' gaits (None: none).
 
     Attributes:
         setup: the scene built for its animals.
         model: the compiled world.
         data: its state.
-        runtime: the controller runtime driving the animals (None: passive ragdolls).
+        runtime: the controller runtime driving the animals (None: passive ragdolls); with
+            several directed animals, the first group's (see `use_groups`).
         events: the scene's events (props set moving, throws), run before every physics step.
         controllers: run before every physics step, in order: the runtime, then the extra ones.
         far_m: a body farther than this from the origin has been flung away (a blow-up).
         warnings: what the run's inputs warn of, once each (a gait the species does not use).
+        variation: what every controller runtime it makes varies by (None: nothing).
     """
 
     def __init__(
-        self, setup: SceneSetup, extra_controllers: Sequence[Controller] = (), metadata: dict[str, str] | None = None
+        self,
+        setup: SceneSetup,
+        extra_controllers: Sequence[Controller] = (),
+        metadata: dict[str, str] | None = None,
+        variation: Variation | None = None,
     ):
         physics.keep_mujoco_quiet()
         self.setup = setup
@@ -116,9 +127,14 @@ class Simulation:
         self.data = mujoco.MjData(self.model)
         self._applied = (self.data.xfrc_applied, self.data.qfrc_applied)  # views made once: cheaper to clear
         self.metadata = dict(metadata or {})
+        self.variation = variation
+        if variation is not None and variation.active:
+            self.metadata |= {"variation": f"{variation.amount:g}", "seed": str(variation.seed)}
         self.warnings: list[Issue] = []
         self.extra_controllers = list(extra_controllers)
         self.runtime: ControllerRuntime | None = None
+        self._runtimes: list[ControllerRuntime] = []
+        self._groups: list[tuple[list[Placement], CompiledController]] = []
         self.controllers: list[Controller] = list(self.extra_controllers)
         self.events = setup.events(self.model)
         self.far_m = FAR_AWAY_HP * max(p.built.animal.pelvis_height for p in setup.placements)
@@ -126,36 +142,46 @@ class Simulation:
     @classmethod
     def build(
         cls,
-        animal: str,
+        animal: str | AnimalSource,
         controller: str | None,
         *,
         scene: str | None = None,
         parameters: Mapping[str, str] | None = None,
         extra_controllers: Sequence[Controller] = (),
         places: Mapping[str, Location] | None = None,
+        direction: str | Path | None = None,
+        variation: Variation | None = None,
     ) -> Simulation:
         """An animal (and the scene's other animals) under a controller, in a scene, at t = 0.
 
         Args:
-            animal: animal name or config path.
+            animal: animal name, config or skeleton file, or an `AnimalSource` (a skeleton file with its options).
             controller: controller name or path (None: a passive ragdoll).
             scene: scene name or path (None: `flat`).
             parameters: controller parameter overrides (YAML values: "2 HP", "[1, 0, 0]").
             extra_controllers: more `Controller`s run after the main one.
             places: where each of `parameters` was written (a batch plan's line), for messages.
+            direction: a direction file, which replaces the scene's `direction:` (docs/direction.md).
+            variation: seeded stride-to-stride variation of the gait (None: none).
 
         Raises:
-            QuadpipeError: the animal, scene or controller cannot be loaded, or do not fit.
+            QuadpipeError: the animal, scene, direction or controller cannot be loaded, or do not fit.
         """
         from quadpipe.animals.library import load_animal
         from quadpipe.animals.model import build_animal
         from quadpipe.world import build_scene, load_scene
+        from quadpipe.world.direction import load_direction
 
         built = build_animal(load_animal(animal))
         scene_spec = load_scene(scene or DEFAULT_SCENE)
         metadata = {"controller": controller or "none", "scene": scene_spec.name, "animal": built.animal.name}
-        simulation = cls(build_scene(scene_spec, built), extra_controllers, metadata)
-        if controller:
+        setup = build_scene(scene_spec, built, load_direction(direction) if direction is not None else None)
+        if setup.timelines:
+            metadata[DIRECTION_KEY] = timelines_json(setup.timelines)
+        simulation = cls(setup, extra_controllers, metadata, variation)
+        if controller and len(setup.parameter_groups()) > 1:
+            simulation.use_groups(simulation.compile_groups(controller, parameters, places=places))
+        elif controller:
             compiled, _ = simulation.compile_controller(controller, parameters, places=places)
             simulation.use_controller(compiled)
         return simulation
@@ -196,6 +222,47 @@ class Simulation:
         self._warn_of_gaits(compiled[0].name)
         return compiled
 
+    def compile_groups(
+        self,
+        controller: str,
+        parameters: Mapping[str, str] | None = None,
+        *,
+        places: Mapping[str, Location] | None = None,
+    ) -> list[tuple[list[Placement], CompiledController]]:
+        """A controller compiled once per group of animals that the scene offers its own
+        parameters (`SceneSetup.parameter_groups`: each directed animal alone), with the
+        group; `parameters` win over the scene's, and `places` says where they were written.
+
+        Raises:
+            QuadpipeError: the files do not validate, or a parameter does not fit them.
+        """
+        from quadpipe.controllers.runtime.runtime import compile_for
+
+        places = self.setup.goal_places() | dict(places or {})
+        groups = [
+            (group, compile_for(controller, group, parameters, scene_parameters=offered, places=places)[0])
+            for group, offered in self.setup.parameter_groups()
+        ]
+        self._warn_of_gaits(groups[0][1].name)
+        return groups
+
+    def use_groups(self, groups: Sequence[tuple[list[Placement], CompiledController]]) -> None:
+        """Drive each group of animals with a fresh runtime of its compiled controller,
+        replacing the current runtimes; `runtime` is the first group's."""
+        from quadpipe.controllers.runtime.runtime import ControllerRuntime
+
+        self._release()
+        self._runtimes = [ControllerRuntime(compiled, self.model, group, self.variation) for group, compiled in groups]
+        self._groups = list(groups)
+        self.runtime = self._runtimes[0]
+        self.controllers = [*self._runtimes, *self.extra_controllers]
+
+    def _release(self) -> None:
+        """Release every current runtime (the model's damping back to the compiled values)."""
+        for runtime in self._runtimes:
+            runtime.release()
+        self._runtimes, self._groups = [], []
+
     def _warn_of_gaits(self, controller: str) -> None:
         """Keep a warning, once per species, when `controller` is a gait the species does not
         use (`gait_warning`): in `warnings` and in the clips' metadata."""
@@ -230,9 +297,9 @@ class Simulation:
         from quadpipe.controllers.runtime.runtime import ControllerRuntime
 
         previous = self.runtime
-        if previous is not None:
-            previous.release()
-        runtime = None if compiled is None else ControllerRuntime(compiled, self.model, self.placements)
+        self._release()
+        runtime = None if compiled is None else ControllerRuntime(compiled, self.model, self.placements, self.variation)
+        self._runtimes = [runtime] if runtime is not None else []
         if carry_over and runtime is not None and previous is not None:
             runtime.adopt(previous)
             runtime.last = previous.last  # the forces acting until the next step, for overlays
@@ -244,9 +311,13 @@ class Simulation:
         """Back to t = 0: the initial state, the scene's events bound again, a fresh runtime of
         the current controller (compiled damping), kinematics computed."""
         compiled = None if self.runtime is None else self.runtime.compiled
+        groups = self._groups
         mujoco.mj_resetData(self.model, self.data)
         self.events = self.setup.events(self.model)
-        self.use_controller(compiled)
+        if groups:
+            self.use_groups(groups)
+        else:
+            self.use_controller(compiled)
         mujoco.mj_forward(self.model, self.data)
 
     # ------------------------------------------------------------------ stepping
@@ -343,7 +414,7 @@ class Result:
 
 
 def simulate(
-    animal: str,
+    animal: str | AnimalSource,
     controller: str | None,
     *,
     seconds: float,
@@ -353,11 +424,13 @@ def simulate(
     on_frame: Callable[[float], None] | None = None,
     fps: float = sizing.FRAME_RATE,
     places: Mapping[str, Location] | None = None,
+    direction: str | Path | None = None,
+    variation: Variation | None = None,
 ) -> Result:
     """Build an animal (and scene), run a controller on it, and return the clip and its metrics.
 
     Args:
-        animal: animal name or config path.
+        animal: animal name, config or skeleton file, or an `AnimalSource` (a skeleton file with its options).
         controller: controller name or path (None: a passive ragdoll).
         seconds: simulated time.
         scene: scene name or path (None: `flat`).
@@ -367,6 +440,8 @@ def simulate(
         fps: recorded frames per second (30, the thesis's; a rat's walk needs more to be
             analysed: its stride lasts 0.17 s).
         places: where each of `parameters` was written (a batch plan's line), for messages.
+        direction: a direction file replacing the scene's `direction:` (docs/direction.md).
+        variation: seeded stride-to-stride variation of the gait (None: every stride alike).
 
     Raises:
         QuadpipeError: a time or frame rate out of the run limits (before anything is built),
@@ -374,7 +449,14 @@ def simulate(
     """
     check_run(seconds, fps)
     simulation = Simulation.build(
-        animal, controller, scene=scene, parameters=parameters, extra_controllers=extra_controllers, places=places
+        animal,
+        controller,
+        scene=scene,
+        parameters=parameters,
+        extra_controllers=extra_controllers,
+        places=places,
+        direction=direction,
+        variation=variation,
     )
     clip = simulation.record(seconds, on_frame=on_frame, fps=fps)
     metrics = clip_metrics(clip)

@@ -12,11 +12,15 @@ scene works for a rat and an elephant: `HP`, `bw` and `bm` are those of the scen
 - `scene_json_schema()`: `schemas/scene.schema.json` (regenerate with `python -m quadpipe.world.generate`).
 
 Modules, lowest first: `placement` (floor, light, animals lifted onto the ground; collision
-bits: world geoms contype 1 / conaffinity 3, bones contype 2 / conaffinity 1), `format` (the
+bits: world geoms contype 1 / conaffinity 3, bones contype 2 / conaffinity 1, plus a bit of
+their own per animal in a scene whose animals collide), `format` (the
 pydantic models of scene files), `loading`, `values` (quantities evaluated for the animals'
-size), `terrain`, `props`, `throws`, `goals`, `build`, `schema` (and `generate`, which
-rewrites the schema file). Terrain, props and thrown objects are boxes, spheres and capsules
-only, the shapes a `quadpipe.clip.model.Clip` carries.
+size), `sets` (a mesh file read and sampled into a height field), `terrain`, `props`,
+`throws`, `direction_format`, `timeline` and `direction` (an animal's path and beats: the
+format, played out in time, loaded and checked; docs/direction.md), `goals`, `build`, `schema`
+(and `generate`, which rewrites the schema files). Terrain, props and thrown objects are boxes,
+spheres and capsules, the shapes a `quadpipe.clip.model.Clip` carries; a set (`type: mesh`
+terrain) is a height field, which clips leave out (the animator has the set's file).
 """
 
 from quadpipe.world.build import SceneSetup, build_scene

@@ -3,6 +3,7 @@ objects and the animals placed in it (`build_scene` -> `SceneSetup`)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -14,13 +15,15 @@ from quadpipe.animals import sizing
 from quadpipe.animals.model import BuiltAnimal
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities import units
+from quadpipe.world.direction import DirectionSpec, scene_timelines
 from quadpipe.world.format import AnimalGrid, Ground
-from quadpipe.world.goals import goal_text
+from quadpipe.world.goals import check_direction_length, direction_parameters, goal_text
 from quadpipe.world.loading import SceneSpec, entry_names, is_path
 from quadpipe.world.placement import Placement, attach_animals, world_spec
 from quadpipe.world.props import PropStart, add_props
 from quadpipe.world.terrain import add_terrain
 from quadpipe.world.throws import ThrowEvent, ThrowPlan, add_thrown, plan_throws
+from quadpipe.world.timeline import Timeline
 from quadpipe.world.values import Values
 
 ANCHOR_FRACTIONS = {"start": 0.0, "mid": 0.5, "end": 1.0}
@@ -39,6 +42,9 @@ class SceneSetup:
         goal_parameters: controller parameter -> expression text (metres, `t` in seconds).
         throws: the throws in declaration order (random series expanded).
         prop_velocities: prop body name -> its start velocity, for props that move at the start.
+        timelines: animal name -> its direction played out in time (see `quadpipe.world.timeline`).
+        directions: animal name -> the controller parameters that play its timeline
+            (`quadpipe.world.goals.direction_parameters`); see `parameter_groups`.
     """
 
     scene: SceneSpec
@@ -48,6 +54,17 @@ class SceneSetup:
     goal_parameters: dict[str, str]
     throws: list[ThrowPlan] = field(default_factory=list)
     prop_velocities: dict[str, np.ndarray] = field(default_factory=dict)
+    timelines: dict[str, Timeline] = field(default_factory=dict)
+    directions: dict[str, dict[str, str]] = field(default_factory=dict)
+
+    def parameter_groups(self) -> list[tuple[list[Placement], dict[str, str]]]:
+        """The animals that one controller runtime drives together, with the parameters the
+        scene offers them: each directed animal alone, with its direction's, and the others
+        together, with the goals. One group holding every animal when none is directed, or
+        when the only animal is (its direction is then among `goal_parameters` too)."""
+        rest = [p for p in self.placements if p.name not in self.directions]
+        groups = [([p], self.goal_parameters | self.directions[p.name]) for p in self.placements if p not in rest]
+        return groups + ([(rest, self.goal_parameters)] if rest else [])
 
     def goal_places(self) -> dict[str, Location]:
         """Where each goal is written in the scene file, for messages about the parameter it sets."""
@@ -91,22 +108,27 @@ class _Slot:
     cell: int = 0
 
 
-def build_scene(scene: SceneSpec, species: Sequence[BuiltAnimal] | BuiltAnimal) -> SceneSetup:
+def build_scene(
+    scene: SceneSpec, species: Sequence[BuiltAnimal] | BuiltAnimal, direction: DirectionSpec | None = None
+) -> SceneSetup:
     """Build a scene's world with its animals.
 
     Args:
         scene: the loaded scene.
         species: the animal for scene entries without a `species` (the command line's): one
             for all of them, or a list with one per such animal, in scene order.
+        direction: a direction file that replaces the scene's `direction:` section.
 
     Raises:
         QuadpipeError: a value out of range for these animals, a throw too slow for its
-            distance, goal times out of order, the wrong number of animals given.
+            distance, goal times out of order, the wrong number of animals given, a
+            direction that cannot be played (see `quadpipe.world.direction.scene_timelines`).
     """
     slots = _slots(scene, species)
     first = slots[0].built.animal
     hp = first.pelvis_height
-    values = Values(scene, units.Scale.of(hp, first.mass_kg))
+    scale = units.Scale.of(hp, first.mass_kg)
+    values = Values(scene, scale)
     placements = [_placement(values, scene, slot) for slot in slots]
     ground = scene.file.ground
     friction = (ground or Ground.model_validate({})).friction
@@ -114,15 +136,28 @@ def build_scene(scene: SceneSpec, species: Sequence[BuiltAnimal] | BuiltAnimal) 
         scene.name, [placement.built for placement in placements], friction if ground is not None else None
     )
     add_terrain(spec, scene, values, friction)
-    attach_animals(spec, placements, friction)
+    attach_animals(spec, placements, friction, scene.file.animals_collide)
     tau = sizing.constraint_time_constant(hp)
     velocities = add_props(spec, scene, values, tau)
     throws = plan_throws(scene, values, [placement.name for placement in placements], -float(spec.option.gravity[2]))
     add_thrown(spec, throws, tau, hp)
     goals = {name: goal_text(scene, values, name) for name in scene.file.goals}
-    return SceneSetup(
-        scene, spec, placements, [placement.heading for placement in placements], goals, throws, velocities
-    )
+    timelines = scene_timelines(scene, values, [placement.name for placement in placements], scale, direction)
+    directions = {
+        p.name: direction_parameters(timelines[p.name], *_sizes(p.built)) for p in placements if p.name in timelines
+    }
+    for name, parameters in directions.items():
+        check_direction_length(name, parameters, (direction or scene).locate(("direction", name)))
+    if len(placements) == 1:
+        goals |= directions.get(placements[0].name, {})
+    headings = [placement.heading for placement in placements]
+    return SceneSetup(scene, spec, placements, headings, goals, throws, velocities, timelines, directions)
+
+
+def _sizes(built: BuiltAnimal) -> tuple[float, float]:
+    """An animal's pelvis height (m) and natural time sqrt(HP / g) (s)."""
+    hp = built.animal.pelvis_height
+    return hp, math.sqrt(hp / units.STANDARD_GRAVITY)
 
 
 def _slots(scene: SceneSpec, species: Sequence[BuiltAnimal] | BuiltAnimal) -> list[_Slot]:

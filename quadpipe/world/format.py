@@ -35,6 +35,8 @@ from quadpipe.quantities.fields import (
     quantities,
     quantity,
 )
+from quadpipe.world.direction_format import DirectionField
+from quadpipe.world.set_format import TerrainMesh
 
 SCHEMA_VERSION = 1
 """The only `schema:` version this quadpipe reads."""
@@ -192,9 +194,15 @@ class TerrainBox(_Model):
     euler: Annotated[quantity(ANGLES), Field([0, 0, 0], description=described(EULER_TEXT, ANGLES))]
 
 
-TERRAIN_TYPES: dict[str, type[_Model]] = {"slope": Slope, "hill": Hill, "stairs": Stairs, "box": TerrainBox}
+TERRAIN_TYPES: dict[str, type[BaseModel]] = {
+    "slope": Slope,
+    "hill": Hill,
+    "stairs": Stairs,
+    "box": TerrainBox,
+    "mesh": TerrainMesh,
+}
 
-Terrain = Annotated[Slope | Hill | Stairs | TerrainBox, Field(discriminator="type")]
+Terrain = Annotated[Slope | Hill | Stairs | TerrainBox | TerrainMesh, Field(discriminator="type")]
 
 
 def _check_size(kind: str | None, size: list[Any]) -> list[Any]:
@@ -464,7 +472,8 @@ class SceneFile(_Model):
         GroundField, Field(default_factory=Ground, description="The floor (`{friction: 1.0}`), or `none` for no floor.")
     ]
     terrain: Annotated[
-        list[Terrain], Field([], description="Static terrain: `slope`, `hill`, `stairs` or `box` items.")
+        list[Terrain],
+        Field([], description="Static terrain: `slope`, `hill`, `stairs`, `box` or `mesh` (a set file) items."),
     ]
     props: Annotated[list[Prop], Field([], description="Loose objects present from the start.")]
     throws: Annotated[
@@ -484,9 +493,17 @@ class SceneFile(_Model):
             description="Where the animals start; default: one animal (the command line's) at the origin, facing +x. `HP`, `bw` and `bm` in the whole scene are those of the first.",
         ),
     ]
+    animals_collide: Annotated[
+        bool,
+        Field(
+            False,
+            description="`true`: the animals' bodies touch each other (each still passes through its own); `false`: they pass through each other.",
+        ),
+    ]
+    direction: DirectionField
 
 
-TAGGED_LISTS: dict[str, tuple[Callable[[dict[str, Any]], str | None], dict[str, type[_Model]], str]] = {
+TAGGED_LISTS: dict[str, tuple[Callable[[dict[str, Any]], str | None], dict[str, type[BaseModel]], str]] = {
     "terrain": (lambda item: item.get("type"), TERRAIN_TYPES, "terrain"),
     "props": (lambda item: "prop", {"prop": Prop}, "prop"),
     "throws": (_throw_tag, {"throw": Throw, "random": ThrowSeries}, "throw"),

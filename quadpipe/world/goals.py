@@ -1,16 +1,19 @@
-"""Goals: controller parameters a scene sets, as controller-language text (a fixed point, or
-a point moving along timed waypoints)."""
+"""Goals: controller parameters a scene sets, as controller-language text (a fixed point, a
+point moving along timed waypoints, or a direction's timeline for `direct`)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 
-from quadpipe.core.errors import QuadpipeError
+from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.limits import MAX_EXPRESSION_LENGTH
 from quadpipe.core.yamlio import dotted
 from quadpipe.quantities.expressions import TIME_VARIABLE
 from quadpipe.world.loading import SceneSpec
+from quadpipe.world.timeline import Segment, Timeline
 from quadpipe.world.values import Values
 
 
@@ -33,26 +36,263 @@ def goal_text(scene: SceneSpec, values: Values, name: str) -> str:
     return goal_expression(waypoints)
 
 
-def goal_expression(waypoints: Sequence[tuple[float, np.ndarray]]) -> str:
+def goal_expression(waypoints: Sequence[tuple[float, np.ndarray]], digits: int = 10) -> str:
     """A piecewise-linear point in time as controller-language text (metres, `t` in seconds).
 
     The point is the first waypoint plus, for each segment, its displacement times the
     fraction of the segment elapsed: `clamp((t - t0) / (t1 - t0), 0, 1)`.
     """
-    terms = [vector_text(waypoints[0][1])]
+    terms = [vector_text(waypoints[0][1], digits)]
     for (t0, p0), (t1, p1) in zip(waypoints, waypoints[1:]):
         terms.append(
-            f"{vector_text(p1 - p0)} * clamp(({TIME_VARIABLE} - {number_text(t0)} s) / ({number_text(t1 - t0)} s), 0, 1)"
+            f"{vector_text(p1 - p0, digits)} * clamp(({TIME_VARIABLE} - {number_text(t0, digits)} s) / ({number_text(t1 - t0, digits)} s), 0, 1)"
         )
-    return " + ".join(terms)
+    return balanced_sum(terms)
 
 
-def vector_text(vector: np.ndarray) -> str:
+def balanced_sum(terms: Sequence[str]) -> str:
+    """The sum of expression texts, bracketed as a balanced tree: a long path's expression
+    nests log2(n) levels deep, not n (see `MAX_EXPRESSION_DEPTH`)."""
+    if len(terms) <= 2:
+        return " + ".join(terms)
+    middle = len(terms) // 2
+    return f"({balanced_sum(terms[:middle])}) + ({balanced_sum(terms[middle:])})"
+
+
+def vector_text(vector: np.ndarray, digits: int = 10) -> str:
     """A point in metres as controller-language text: `[13.1 m, 0 m, 0 m]`."""
-    return "[" + ", ".join(f"{number_text(v)} m" for v in vector) + "]"
+    return "[" + ", ".join(f"{number_text(v, digits)} m" for v in vector) + "]"
 
 
-def number_text(value: float) -> str:
-    """A number with 10 significant digits, without `-0`."""
-    text = f"{float(value):.10g}"
+def number_text(value: float, digits: int = 10) -> str:
+    """A number with `digits` significant digits, without `-0`."""
+    text = f"{float(value):.{digits}g}"
     return "0" if text == "-0" else text
+
+
+CARROT_HP = 2.5
+"""How far ahead of the reference point along the path the animal steers, pelvis heights."""
+
+STAND_RAMP_NATURAL = 1.0
+"""How long the gait takes to fade into a stand (and back), natural times."""
+
+STAND_LEAD = 0.75
+"""How much of the fade into a stand comes before the stand starts (the animal's arrival at
+its mark), as a fraction of `STAND_RAMP_NATURAL`: the animal brakes before its mark."""
+
+FORCED_GAITS = {"walk": (0.0, 0.0), "trot": (1.0, 0.0), "gallop": (1.0, 1.0)}
+"""The gaits a move may ask for, as `auto_gait`'s shares: (running gait, gallop)."""
+
+POSE_RAMP_NATURAL = 3.0
+"""How long sitting or lying down takes, and getting up again, natural times."""
+
+DIRECTION_DIGITS = 7
+"""Significant digits of the numbers of a direction's expressions (a micrometre on a 10 m path)."""
+
+
+def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> dict[str, str]:
+    """The controller parameters that play a timeline (see configs/controllers/direct.yaml):
+
+    - `path_point`: where the pelvis should be now, on the path;
+    - `path_goal`: the point `CARROT_HP` further along, which the animal steers toward (during
+      a turn, swinging round the turn's mark);
+    - `path_tangent`: the path's direction at `path_point` (a unit vector);
+    - `path_speed`: the asked speed now (0 while standing);
+    - `path_stand`: 0 while moving, 1 while standing, a smooth ramp between;
+    - `path_look` and `path_looking`: the point a beat looks at, and 1 while one does (0
+      while looking ahead), ramping like a stand;
+    - `path_sit` and `path_lie`: 1 while a hold sits (lies), with ramps down and up;
+    - `path_auto`: 1 while the gait follows the speed, 0 while a move asks for one;
+      `path_run` and `path_gallop`: the running gait's and the gallop's shares it asks for
+      (see `FORCED_GAITS`), each ramping over the same time as a stand.
+    """
+    ramp = STAND_RAMP_NATURAL * natural_time
+    gaits = [(seg.start, FORCED_GAITS.get(seg.gait)) for seg in timeline.segments if seg.kind == "move"]
+    shares = [(when, (1.0, 0.0, 0.0) if forced is None else (0.0, *forced)) for when, forced in gaits]
+    return {
+        "path_point": timed_points_text(timeline, 0.0),
+        "path_goal": " + ".join(
+            text
+            for text in (timed_points_text(timeline, CARROT_HP * hp), _turns_text(timeline, CARROT_HP * hp))
+            if text
+        ),
+        "path_tangent": _tangent_text(timeline),
+        "path_speed": _steps_text([(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"),
+        "path_stand": _stand_text(timeline.stands(), ramp),
+        **_look_texts(timeline.segments, ramp),
+        **_pose_texts(timeline.segments, POSE_RAMP_NATURAL * natural_time),
+        **{
+            name: _ramps_text([(when, share[k]) for when, share in shares] or [(0.0, float(k == 0))], ramp)
+            for k, name in enumerate(("path_auto", "path_run", "path_gallop"))
+        },
+    }
+
+
+def check_direction_length(name: str, parameters: dict[str, str], where: Location) -> None:
+    """Refuse a direction whose expressions are too long for the controller language, at the
+    direction (rather than at the expression the controller cannot read).
+
+    Raises:
+        QuadpipeError: `limit-exceeded`, naming the longest expression.
+    """
+    longest = max(parameters, key=lambda key: len(parameters[key]))
+    length = len(parameters[longest])
+    if length > MAX_EXPRESSION_LENGTH.value:
+        raise QuadpipeError.single(
+            "limit-exceeded",
+            f"the direction of {name} is too long to play: its {longest} expression would be {length} "
+            f"characters, over the limit of {MAX_EXPRESSION_LENGTH.value:g}",
+            where=where,
+            hint="give its path fewer points (a smooth path has 6 pieces between two points: try `smooth: false`) "
+            "or fewer beats, or split the shot in two",
+        )
+
+
+def timed_points_text(timeline: Timeline, ahead: float) -> str:
+    """The point `ahead` metres along the path from the reference, in time, as text: a
+    corner wherever it passes a point of the polyline, reaches a turn's mark or the
+    reference speed changes. Until a turn is done, the point goes on straight past the
+    turn's mark (the animal does not cut across to the path after the turn)."""
+    lengths = timeline.lengths
+    turns = [seg for seg in timeline.segments if seg.kind == "turn"]
+    marks = np.concatenate([lengths, [seg.s0 for seg in turns]]) - ahead
+    knots = timeline.knots()
+    times = {timeline.end}
+    for (t0, s0), (t1, s1) in zip(knots, knots[1:]):
+        times.add(t0)
+        if s1 > s0:
+            inside = marks[(marks > s0) & (marks < s1)]
+            times |= set(t0 + (inside - s0) / (s1 - s0) * (t1 - t0))
+    points = [(t, _ahead_point(timeline, turns, t, ahead)) for t in sorted(times)]
+    return goal_expression(points, DIRECTION_DIGITS)
+
+
+def _ahead_point(timeline: Timeline, turns: Sequence[Segment], when: float, ahead: float) -> np.ndarray:
+    """The point `ahead` metres along the path from the reference at time `when`, [x, y, 0]
+    metres: straight on past the mark of a turn not yet done (see `timed_points_text`)."""
+    distance = float(timeline.distance_at(np.array([when]))[0])
+    turn = next((seg for seg in turns if when < seg.end and distance + ahead > seg.s0 >= distance), None)
+    if turn is None:
+        x, y = timeline.point_at(np.array([distance + ahead]))[0]
+    else:
+        x, y = timeline.point_at(np.array([turn.s0]))[0] + (distance + ahead - turn.s0) * timeline.heading_at(turn.s0)
+    return np.array([x, y, 0.0])
+
+
+def _turns_text(timeline: Timeline, ahead: float) -> str:
+    """What turns add to the steering point: during each turn, the point `ahead` metres
+    from the turn's mark swings from straight on to the turn's angle, at a steady rate."""
+    terms = []
+    for seg in (seg for seg in timeline.segments if seg.kind == "turn"):
+        straight = timeline.heading_at(seg.s0)
+        t0, t1 = (number_text(when, DIRECTION_DIGITS) for when in (seg.start, seg.end))
+        angle = (
+            f"({number_text(math.atan2(straight[1], straight[0]), DIRECTION_DIGITS)} rad + "
+            f"{number_text(seg.turn, DIRECTION_DIGITS)} rad * clamp(({TIME_VARIABLE} - {t0} s) / "
+            f"({number_text(seg.end - seg.start, DIRECTION_DIGITS)} s), 0, 1))"
+        )
+        length = f"{number_text(ahead, DIRECTION_DIGITS)} m"
+        terms.append(
+            f"(step({t0} s, {TIME_VARIABLE}) - step({t1} s, {TIME_VARIABLE})) * "
+            f"([{length} * cos({angle}), {length} * sin({angle}), 0 m] - "
+            f"{vector_text(np.array([*(ahead * straight), 0.0]), DIRECTION_DIGITS)})"
+        )
+    return balanced_sum(terms)
+
+
+def _tangent_text(timeline: Timeline) -> str:
+    """The path's unit tangent at the reference point, in time: it turns as the reference
+    passes each point of the polyline."""
+    lengths, points = timeline.lengths, timeline.points
+    pieces = np.diff(points, axis=0)
+    units = pieces / np.maximum(np.linalg.norm(pieces, axis=1, keepdims=True), 1e-12)
+    knots = timeline.knots()
+    knot_t, knot_s = np.array([k[0] for k in knots]), np.array([k[1] for k in knots])
+    changes = []
+    for k in range(1, len(units)):
+        passed = np.nonzero(knot_s >= lengths[k])[0]
+        if len(passed) == 0:
+            break
+        j = passed[0]
+        when = knot_t[0] if j == 0 else np.interp(lengths[k], knot_s[j - 1 : j + 1], knot_t[j - 1 : j + 1])
+        changes.append((float(when), units[k] - units[k - 1]))
+    terms = [_plain_vector(units[0])] + [
+        f"{_plain_vector(change)} * step({number_text(when, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+        for when, change in changes
+        if np.abs(change).max() > 1e-9
+    ]
+    return balanced_sum(terms)
+
+
+def _steps_text(values: Sequence[tuple[float, float]], unit: str) -> str:
+    """A piecewise-constant value in time as text: `values[0]` then a step at each change."""
+    terms = [f"{number_text(values[0][1], DIRECTION_DIGITS)} {unit}"]
+    for (_, before), (when, after) in zip(values, values[1:]):
+        if after != before:
+            terms.append(
+                f"{number_text(after - before, DIRECTION_DIGITS)} {unit} * step({number_text(when, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+            )
+    return balanced_sum(terms)
+
+
+def _stand_text(stands: Sequence[tuple[float, float]], ramp: float) -> str:
+    """1 while standing, 0 while moving: a smooth ramp of `ramp` seconds into each stand
+    (`STAND_LEAD` of it before the stand starts) and out of it after it ends."""
+    terms = ["0"]
+    for start, end in stands:
+        begin = start - STAND_LEAD * ramp
+        terms.append(
+            f"smoothstep({number_text(begin, DIRECTION_DIGITS)} s, {number_text(begin + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+        )
+        if np.isfinite(end):
+            terms.append(
+                f"-smoothstep({number_text(end, DIRECTION_DIGITS)} s, {number_text(end + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+            )
+    return balanced_sum(terms)
+
+
+def _ramps_text(values: Sequence[tuple[float, float]], ramp: float) -> str:
+    """A value that changes at given times, as text: `values[0]`, then a smooth ramp of `ramp`
+    seconds to each next value from its time."""
+    terms = [number_text(values[0][1], DIRECTION_DIGITS)]
+    for (_, before), (when, after) in zip(values, values[1:]):
+        if after != before:
+            terms.append(
+                f"{number_text(after - before, DIRECTION_DIGITS)} * smoothstep({number_text(when, DIRECTION_DIGITS)} s, {number_text(when + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+            )
+    return balanced_sum(terms)
+
+
+def _look_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:
+    """`path_look` (each looking beat's point from its start, held until the next's) and
+    `path_looking` (1 while a beat looks at a point, ramping over `ramp` seconds)."""
+    looks = [(seg.start, np.array(seg.look)) for seg in segments if seg.look is not None]
+    point = looks[0][1] if looks else np.zeros(3)
+    terms = [vector_text(point, DIRECTION_DIGITS)] + [
+        f"{vector_text(after - before, DIRECTION_DIGITS)} * step({number_text(when, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
+        for (_, before), (when, after) in zip(looks, looks[1:])
+        if np.any(after != before)
+    ]
+    looking = [(seg.start, float(seg.look is not None)) for seg in segments] or [(0.0, 0.0)]
+    return {"path_look": balanced_sum(terms), "path_looking": _ramps_text([(0.0, 0.0), *looking], ramp)}
+
+
+def _pose_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:
+    """`path_sit` and `path_lie`: 1 while a hold sits (lies), ramping over `ramp` seconds
+    from the hold's start, and back over the same time before it ends."""
+    texts = {}
+    for pose in ("sit", "lie"):
+        terms = ["0"]
+        for seg in (seg for seg in segments if seg.kind == "hold" and seg.pose == pose):
+            down, up = seg.start, max(seg.start, seg.end - ramp)
+            terms += [
+                f"smoothstep({number_text(down, DIRECTION_DIGITS)} s, {number_text(down + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})",
+                f"-smoothstep({number_text(up, DIRECTION_DIGITS)} s, {number_text(up + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})",
+            ]
+        texts[f"path_{pose}"] = balanced_sum(terms)
+    return texts
+
+
+def _plain_vector(vector: np.ndarray) -> str:
+    """A horizontal unit vector as text: `[0.7071068, 0.7071068, 0]`."""
+    return "[" + ", ".join(number_text(v, DIRECTION_DIGITS) for v in (*vector[:2], 0.0)) + "]"

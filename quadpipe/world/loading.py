@@ -35,6 +35,7 @@ from quadpipe.world.format import (
     is_zero,
     iter_quantities,
 )
+from quadpipe.world.set_format import TerrainMesh
 
 SCENE_KIND = "scenes"
 """The config folder of scenes (see `quadpipe.core.configs`)."""
@@ -97,7 +98,7 @@ def parse_scene(doc: YamlDocument) -> SceneFile:
     issues = _structure_issues(doc)
     if not issues:
         scene = SceneFile.model_validate(doc.data)
-        issues = _count_issues(scene, doc) or _quantity_issues(scene, doc) + _reference_issues(scene, doc)
+        issues = _count_issues(scene, doc) or quantity_issues(scene, doc) + _reference_issues(scene, doc)
     if issues:
         raise QuadpipeError(sorted(issues, key=file_order))
     return scene
@@ -112,7 +113,7 @@ def file_order(issue: Issue) -> tuple[int, int]:
 def _structure_issues(doc: YamlDocument) -> list[Issue]:
     """Keys and value shapes: the top level, then each item of the tagged lists on its own."""
     top = {key: ([] if key in TAGGED_LISTS and isinstance(value, list) else value) for key, value in doc.data.items()}
-    issues = _validate_part(SceneFile, top, (), doc)
+    issues = validate_part(SceneFile, top, (), doc)
     for key, (tag_of, models, what) in TAGGED_LISTS.items():
         items = doc.data.get(key)
         for index, item in enumerate(items if isinstance(items, list) else []):
@@ -151,7 +152,7 @@ def _structure_issues(doc: YamlDocument) -> list[Issue]:
                     )
                 )
             else:
-                issues += _validate_part(models[tag], item, path, doc)
+                issues += validate_part(models[tag], item, path, doc)
     if not issues and doc.data.get("schema") != SCHEMA_VERSION:
         issues.append(
             Issue(
@@ -164,7 +165,7 @@ def _structure_issues(doc: YamlDocument) -> list[Issue]:
     return issues
 
 
-def _validate_part(model: type[BaseModel], data: Any, prefix: tuple[Any, ...], doc: YamlDocument) -> list[Issue]:
+def validate_part(model: type[BaseModel], data: Any, prefix: tuple[Any, ...], doc: YamlDocument) -> list[Issue]:
     """Pydantic errors of `data` against `model`, located at `prefix` + their path in the file."""
     try:
         model.model_validate(data)
@@ -212,7 +213,7 @@ def _over(limit: Limit, key: str, sizes: list[int], doc: YamlDocument) -> list[I
     return []
 
 
-def _quantity_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
+def quantity_issues(scene: BaseModel, doc: YamlDocument) -> list[Issue]:
     """Units and dimensions of every quantity; scene values must be constants."""
     issues = []
     for path, value, expect, _ in iter_quantities(scene):
@@ -261,6 +262,7 @@ def _reference_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
             )
         seen.add(name)
     issues += _reserved_issues(scene, doc)
+    issues += _set_file_issues(scene, doc)
     for index, entry in enumerate(scene.animals or []):
         if entry.species is not None:
             issues += _species_issues(entry.species, ("animals", index, "species"), doc)
@@ -284,6 +286,24 @@ def _reference_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
                 )
             )
     return issues
+
+
+def _set_file_issues(scene: SceneFile, doc: YamlDocument) -> list[Issue]:
+    """Set files (`type: mesh` terrain) that are missing or in a format quadpipe does not read."""
+    from quadpipe.world.sets import set_issue
+
+    issues = []
+    for index, item in enumerate(scene.terrain):
+        if isinstance(item, TerrainMesh):
+            path = ("terrain", index, "file")
+            issue = set_issue(set_path(doc, item), item.file, doc.locate(path))
+            issues += [] if issue is None else [issue]
+    return issues
+
+
+def set_path(doc: YamlDocument, item: TerrainMesh) -> Path:
+    """Where a set file is: its `file`, relative to the scene file."""
+    return Path(doc.file).parent / item.file
 
 
 def _named_things(scene: SceneFile) -> Iterator[tuple[tuple[Any, ...], str]]:

@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from quadpipe.animals import sizing
-from quadpipe.animals.model import FRICTION, BuiltAnimal
+from quadpipe.animals.model import ANIMAL_CONAFFINITY, ANIMAL_CONTYPE, FRICTION, BuiltAnimal
 
 WORLD_CONTYPE, WORLD_CONAFFINITY = 1, 3
 """Collision bits of world geoms: they touch each other (bit 1) and the animals (bit 2)."""
@@ -97,13 +97,16 @@ def world_spec(name: str, animals: Sequence[BuiltAnimal], floor_friction: float 
     return spec
 
 
-def attach_animals(spec: mujoco.MjSpec, placements: Sequence[Placement], friction: float) -> None:
+def attach_animals(
+    spec: mujoco.MjSpec, placements: Sequence[Placement], friction: float, collide: bool = False
+) -> None:
     """Attach every animal, turned to its heading and lifted onto whatever lies under it.
 
     The ground is found on the world compiled before any animal is attached (compiling the
     spec itself: `MjSpec.copy()` of a spec whose material skips a texture role crashes
     MuJoCo 3.17). Every geom of the animals gets the sliding friction `friction` (MuJoCo lets
-    the bones decide their contacts).
+    the bones decide their contacts). With `collide`, the animals' bones touch each other's
+    (never their own: see `animal_collision_bits`).
     """
     ground_model = spec.compile()
     ground_data = mujoco.MjData(ground_model)
@@ -115,10 +118,28 @@ def attach_animals(spec: mujoco.MjSpec, placements: Sequence[Placement], frictio
         lift = start_height(placement, bottoms[id(placement.built)], ground_model, ground_data)
         animal_spec = placement.built.spec.copy()
         animal_spec.option.timestep = spec.option.timestep
+        bits = animal_collision_bits(placements.index(placement), len(placements)) if collide else None
         for geom in animal_spec.geoms:
             geom.friction = [friction, *geom.friction[1:]]
+            if bits is not None:
+                geom.contype, geom.conaffinity = bits
         frame = spec.worldbody.add_frame(pos=[*placement.xy, lift], quat=yaw_quat(placement.heading))
         spec.attach(animal_spec, prefix=f"{placement.name}/", frame=frame)
+
+
+ANIMAL_BITS = range(2, 31)
+"""Collision bits given to animals that collide with each other, one each in turn (bit 1 is
+every bone's, which the world's geoms touch: `WORLD_CONAFFINITY`)."""
+
+
+def animal_collision_bits(index: int, count: int) -> tuple[int, int]:
+    """The contype and conaffinity of the bones of the `index`th of `count` animals that
+    collide with each other: each its own bit (after 29 animals, bits are shared, and
+    animals sharing one pass through each other), touching the world's geoms and every other
+    animal's bit, never its own."""
+    own = 1 << ANIMAL_BITS[index % len(ANIMAL_BITS)]
+    others = sum(1 << ANIMAL_BITS[k % len(ANIMAL_BITS)] for k in range(count)) & ~own
+    return ANIMAL_CONTYPE | own, ANIMAL_CONAFFINITY | others
 
 
 def geom_bottoms(animal_spec: mujoco.MjSpec) -> np.ndarray:

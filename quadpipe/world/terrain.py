@@ -1,4 +1,5 @@
-"""Static terrain: ramps, hills, stairs and blocks, each made of boxes (`Slab`s)."""
+"""Static terrain: ramps, hills, stairs and blocks, each made of boxes (`Slab`s), and sets
+(mesh files) made into height fields (`quadpipe.world.sets`)."""
 
 from __future__ import annotations
 
@@ -11,8 +12,9 @@ import numpy as np
 
 from quadpipe.animals.model import FRICTION
 from quadpipe.world.format import Hill, Slope, Stairs, TerrainBox
-from quadpipe.world.loading import SceneSpec
+from quadpipe.world.loading import SceneSpec, set_path
 from quadpipe.world.placement import WORLD_CONAFFINITY, WORLD_CONTYPE, euler_quat
+from quadpipe.world.set_format import TerrainMesh
 from quadpipe.world.values import Values
 
 RAMP_BASE_HP = 0.1
@@ -32,9 +34,25 @@ class Slab:
     quat: np.ndarray
 
 
+SET_BASE_M = 0.1
+"""Depth of a set's height field below its lowest point, metres (MuJoCo's hfield `size[3]`)."""
+
+MIN_SET_RELIEF_M = 1e-6
+"""Elevation range given to a flat set's height field (MuJoCo needs a positive one), metres."""
+
+
 def add_terrain(spec: mujoco.MjSpec, scene: SceneSpec, values: Values, friction: float) -> None:
-    """Add the boxes of every terrain item to the world, with the ground's sliding friction."""
+    """Add the boxes and height fields of every terrain item to the world, with the ground's sliding friction."""
+    ground = {
+        "rgba": list(TERRAIN_RGBA),
+        "contype": WORLD_CONTYPE,
+        "conaffinity": WORLD_CONAFFINITY,
+        "friction": [friction, *FRICTION[1:]],
+    }
     for index, item in enumerate(scene.file.terrain):
+        if isinstance(item, TerrainMesh):
+            _add_set(spec, f"terrain{index}_mesh", scene, index, item, ground)
+            continue
         for slab in terrain_slabs(index, item, values):
             spec.worldbody.add_geom(
                 name=slab.name,
@@ -42,11 +60,31 @@ def add_terrain(spec: mujoco.MjSpec, scene: SceneSpec, values: Values, friction:
                 pos=slab.centre,
                 size=slab.half,
                 quat=slab.quat,
-                rgba=list(TERRAIN_RGBA),
-                contype=WORLD_CONTYPE,
-                conaffinity=WORLD_CONAFFINITY,
-                friction=[friction, *FRICTION[1:]],
+                **ground,
             )
+
+
+def _add_set(
+    spec: mujoco.MjSpec, name: str, scene: SceneSpec, index: int, item: TerrainMesh, ground: dict[str, Any]
+) -> None:
+    """A set file as a height field geom named `name`, placed in the set's own coordinates."""
+    from quadpipe.world.sets import height_grid
+
+    where = scene.locate(("terrain", index, "file"))
+    grid = height_grid(set_path(scene.doc, item), item.file, where, item.scale, item.up, item.resolution)
+    low = float(grid.heights.min())
+    relief = max(float(grid.heights.max()) - low, MIN_SET_RELIEF_M)
+    rows, columns = grid.heights.shape
+    spec.add_hfield(
+        name=name,
+        size=[*grid.half_sizes, relief, SET_BASE_M],
+        nrow=rows,
+        ncol=columns,
+        userdata=((grid.heights - low) / relief).astype(np.float32).ravel().tolist(),
+    )
+    spec.worldbody.add_geom(
+        name=name, type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname=name, pos=[*grid.centre, low], **ground
+    )
 
 
 def terrain_slabs(index: int, item: Any, values: Values) -> list[Slab]:

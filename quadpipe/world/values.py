@@ -2,17 +2,29 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
+from pydantic import BaseModel
 
-from quadpipe.core.errors import Issue, QuadpipeError
+from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.core.limits import SCENE_EXTENT_HP
+from quadpipe.core.yamlio import YamlDocument
 from quadpipe.quantities import units
 from quadpipe.quantities.expressions import VECTOR, Expect, compile_quantity
 from quadpipe.quantities.fields import Bounds
 from quadpipe.world.format import is_zero, iter_quantities
-from quadpipe.world.loading import SceneSpec, file_order, shown
+from quadpipe.world.loading import file_order, shown
+
+
+class Located(Protocol):
+    """A validated file with its parsed YAML: a scene (`SceneSpec`) or a direction file."""
+
+    @property
+    def file(self) -> BaseModel: ...
+    @property
+    def doc(self) -> YamlDocument: ...
+    def locate(self, path: tuple[Any, ...]) -> Location: ...
 
 
 class Values:
@@ -29,7 +41,7 @@ class Values:
             finite, or a length beyond the sane extent of a scene (`SCENE_EXTENT_HP`).
     """
 
-    def __init__(self, scene: SceneSpec, scale: units.Scale):
+    def __init__(self, scene: Located, scale: units.Scale):
         self.scene = scene
         self.hp = float(scale.hp[0])
         self._values: dict[tuple[Any, ...], Any] = {}

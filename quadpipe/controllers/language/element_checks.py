@@ -328,8 +328,9 @@ class ElementChecks:
             self._constant_vector(model.axis, namespace),
             self._constant_vector(model.reference, namespace),
         )
-        if axis is None or reference is None or not np.linalg.norm(axis) > 0 or not np.linalg.norm(reference) > 0:
+        if axis is None or reference is None or not np.abs(axis).max() > 0 or not np.abs(reference).max() > 0:
             return
+        axis, reference = axis / np.abs(axis).max(), reference / np.abs(reference).max()  # no overflow at 1e308
         sine = np.linalg.norm(np.cross(axis, reference)) / (np.linalg.norm(axis) * np.linalg.norm(reference))
         if sine < PARALLEL_SINE:
             self.error(

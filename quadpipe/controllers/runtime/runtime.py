@@ -35,6 +35,7 @@ from quadpipe.controllers.language.compiler import CompiledController, compile_c
 from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.runtime.kernel import HEADING_MIN_NORM, INTEGER_ARRAYS, NO_FAULT, REAL_ARRAYS, pack, run
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
+from quadpipe.controllers.runtime.variation import StrideClock, Variation
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.world.placement import Placement
@@ -79,9 +80,17 @@ class ControllerRuntime:
         compiled: the controller compiled for the placements' animals (same order).
         model: the compiled world.
         placements: the animals, in the order of `compiled.scale`.
+        variation: seeded stride-to-stride variation of every cycle (`quadpipe.controllers.runtime.variation`);
+            None: none, every stride alike.
     """
 
-    def __init__(self, compiled: CompiledController, model: mujoco.MjModel, placements: Sequence[Placement]):
+    def __init__(
+        self,
+        compiled: CompiledController,
+        model: mujoco.MjModel,
+        placements: Sequence[Placement],
+        variation: Variation | None = None,
+    ):
         self.compiled, self.model, self.placements = compiled, model, list(placements)
         self.name = compiled.name
         self.n = len(placements)
@@ -106,6 +115,9 @@ class ControllerRuntime:
         self._fixed_for: mujoco.MjData | None = None
         self._fixed: _FixedArguments  # set with `_fixed_for` by `_arguments`
         self._few_contacts = (np.zeros((1, 4), np.int32)[:, ::2], np.zeros((1, 18))[:, ::2])
+        self._clock = (
+            StrideClock(variation, len(self.program.cycles), self.n) if variation and variation.active else None
+        )
 
     # ------------------------------------------------------------------ set-up
 
@@ -241,8 +253,19 @@ class ControllerRuntime:
         self.model.dof_damping[:] = self._arrays["base_damping"]
 
     def apply(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Add this step's forces to `data.xfrc_applied` and `data.qfrc_applied`."""
-        self._run(data, len(self.program.code), finish=True)
+        """Add this step's forces to `data.xfrc_applied` and `data.qfrc_applied`.
+
+        With a variation, the cycles' phase advance of this step is then scaled by its stride's
+        factor (`StrideClock.advance`); the step's own forces saw the unscaled advance, a
+        difference of variation x dt / period: millionths of a cycle.
+        """
+        if self._clock is None:
+            self._run(data, len(self.program.code), finish=True)
+        else:
+            phase = self._arrays["phase"]
+            before = phase.copy()
+            self._run(data, len(self.program.code), finish=True)
+            self._clock.advance(before, phase)
         self._last = None
 
     def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:

@@ -1,0 +1,608 @@
+"""Directions (#16): the format and its located errors, the timeline, and the `direct`
+controller playing shots: speeds, arrivals, stops and starts, a loop, the stairs' landing."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from quadpipe.analysis import analyze_clip
+from quadpipe.analysis.direction import DirectionReport, direction_reports, format_direction
+from quadpipe.clip.model import Clip
+from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.world.direction import load_direction
+from quadpipe.world.schema import DIRECTION_SCHEMA_PATH, direction_json_schema, direction_schema_text
+from quadpipe.world.timeline import BeatValues, dense_path, follower_timeline, plan_direction
+from tests.conftest import FIXTURES, REPO
+
+DIRECTIONS = FIXTURES / "direction"
+
+SPEED_TOLERANCE = 0.05
+"""Mean speed on each stretch of at least `MEASURED_STRIDES` strides: within 5 % of the asked speed."""
+
+MEASURED_STRIDES = 4.0
+ARRIVAL_TOLERANCE = 0.03
+"""Each move reaches its end within 3 % of the shot's length of when it was asked to."""
+
+STILL_HP = 0.02
+"""A settled stand: pelvis speed below this, pelvis heights per natural time."""
+
+LOOP_LATERAL_HP = 0.3
+"""A loop at a walk: RMS lateral error after the first move, pelvis heights."""
+
+TAIL_S = 3.0
+"""Seconds simulated after a shot's last beat (the final stand)."""
+
+
+def nowhere(path: tuple) -> Location:
+    return Location()
+
+
+def write_direction(folder: Path, animal: str, body: dict) -> Path:
+    """A direction file for one animal."""
+    path = folder / f"{animal}.direction.yaml"
+    path.write_text(yaml.safe_dump({"schema": 1, "direction": {animal: body}}), encoding="utf-8")
+    return path
+
+
+@functools.cache
+def simulated(animal: str, direction: Path | None, scene: str | None, seconds: float) -> Clip:
+    """A shot simulated under `direct` (once per session); no animal may fall."""
+    from quadpipe.sim.simulation import simulate
+
+    result = simulate(animal, "direct", seconds=seconds, scene=scene, direction=direction)
+    fallen = [name for name, figures in result.metrics["animals"].items() if figures["fell"]]
+    assert fallen == [], f"{', '.join(fallen)} fell"
+    return result.clip
+
+
+def played(animal: str, direction: Path | None, scene: str | None, seconds: float) -> DirectionReport:
+    """The direction report of a shot simulated under `direct`."""
+    (report,) = direction_reports(simulated(animal, direction, scene, seconds))
+    return report
+
+
+def between(clip: Clip, start: float, end: float) -> Clip:
+    """The frames of a clip from `start` to `end` seconds."""
+    frames = slice(round(start * clip.fps), round(end * clip.fps) + 1)
+    tracks = [
+        dataclasses.replace(
+            track,
+            positions=track.positions[frames],
+            rotations=track.rotations[frames],
+            foot_contacts=track.foot_contacts[frames],
+        )
+        for track in clip.animals
+    ]
+    return dataclasses.replace(clip, animals=tracks, props=[], sensors={})
+
+
+# --------------------------------------------------------------------------- the timeline
+
+
+def test_moves_take_their_speed_or_arrive_on_time_and_holds_stand() -> None:
+    points = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 3.0]])
+    beats = [BeatValues("move", 1, speed=1.0), BeatValues("hold", hold=1.5), BeatValues("move", 2, arrival=6.5)]
+    timeline, issues = plan_direction(points, False, beats, 0.25, nowhere)
+    assert issues == []
+    move, hold, arrive = timeline.segments
+    assert (move.start, move.end, move.speed) == (0.0, 2.0, 1.0)
+    assert (hold.start, hold.end, hold.speed) == (2.0, 3.5, 0.0)
+    assert arrive.end == 6.5 and arrive.speed == pytest.approx(1.0)
+    assert timeline.distance_at(np.array([1.0, 3.0, 5.0])) == pytest.approx([1.0, 2.0, 3.5])
+    assert timeline.stands() == [(2.0, 3.5), (6.5, np.inf)]
+
+
+def test_a_smooth_path_passes_through_its_points() -> None:
+    points = np.array([[0.0, 0.0], [3.0, 3.0], [6.0, 0.0], [3.0, -3.0]])
+    dense, marks = dense_path(points, True)
+    assert dense[marks] == pytest.approx(points)
+    assert len(dense) > 3 * len(points)
+
+
+def test_a_stop_in_the_middle_stands_two_natural_times() -> None:
+    points = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    beats = [BeatValues("move", 1, speed=1.0), BeatValues("stop"), BeatValues("move", 2, speed=1.0)]
+    timeline, _ = plan_direction(points, False, beats, 0.25, nowhere)
+    assert timeline.segments[1].end - timeline.segments[1].start == pytest.approx(0.5)
+
+
+def test_a_follower_keeps_behind_and_aside_on_the_leaders_beats() -> None:
+    points = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]])
+    leader, _ = plan_direction(points, False, [BeatValues("move", 2, speed=1.0)], 0.25, nowhere)
+    follower = follower_timeline(leader, 2.0, 1.0)
+    assert follower.segments == leader.segments
+    assert follower.points[0] == pytest.approx([-2.0, 1.0])
+    assert follower.points[-1] == pytest.approx([3.0, 4.0])
+    assert follower.point_at(follower.distance_at(np.array([0.0])))[0] == pytest.approx([-2.0, 1.0])
+
+
+# --------------------------------------------------------------------------- files and errors
+
+
+def test_direction_schema_is_current() -> None:
+    committed = (REPO / DIRECTION_SCHEMA_PATH).read_text(encoding="utf-8")
+    assert committed == direction_schema_text(), "run: python -m quadpipe.world.generate"
+
+
+def direction_files() -> list[Path]:
+    """The direction files among the fixtures (the others are scenes)."""
+    return [path for path in sorted(DIRECTIONS.glob("*.yaml")) if "schemas/direction" in path.read_text()]
+
+
+def test_direction_schema_accepts_the_direction_files_and_describes_every_key() -> None:
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = direction_json_schema()
+    validator = jsonschema.Draft202012Validator(schema)
+    assert direction_files()
+    for path in direction_files():
+        assert list(validator.iter_errors(yaml.safe_load(path.read_text()))) == [], path
+    assert list(validator.iter_errors({"schema": 1, "direction": {"dog": {"follow": "a", "behnd": "1 HP"}}}))
+
+    def described(node: object) -> None:
+        if isinstance(node, dict):
+            for key, prop in node.get("properties", {}).items():
+                assert prop.get("description"), key
+            for value in node.values():
+                described(value)
+        elif isinstance(node, list):
+            for value in node:
+                described(value)
+
+    described(schema)
+
+
+def test_the_direction_files_load() -> None:
+    assert [load_direction(path).file.direction for path in direction_files()]
+
+
+BAD_FILES = {
+    "no pace": ("beats: [{to: 1}]", "invalid-value", 1, "give exactly one of `speed`, `froude` and `at`"),
+    "typo": ("beats: [{to: 1, froude: 0.15, spead: 2}]", "unknown-key", 1, "'spead'"),
+    "wrong unit": ("beats: [{hold: 2 deg}]", "wrong-dimension", 1, "time"),
+    "bad stop": ("beats: [stpo]", "invalid-value", 1, "'stop'"),
+}
+
+
+@pytest.mark.parametrize("name", BAD_FILES)
+def test_bad_direction_files_give_located_errors(tmp_path: Path, name: str) -> None:
+    beats, code, _, words = BAD_FILES[name]
+    path = tmp_path / "bad.yaml"
+    path.write_text(f"schema: 1\ndirection:\n  dog:\n    path: {{points: [[0, 0, 0], [4 HP, 0, 0]]}}\n    {beats}\n")
+    with pytest.raises(QuadpipeError) as caught:
+        load_direction(path)
+    text = str(caught.value)
+    assert f"{path}:5:" in text and f"error {code}" in text and words in text
+
+
+@pytest.mark.parametrize(
+    ("beats", "code", "column"),
+    [
+        ("[{to: 4, froude: 0.15}]", "direction-bad-point", 18),
+        ("[{to: 1, at: 2 s}, {to: 2, at: 1 s}]", "direction-too-soon", 43),
+    ],
+)
+def test_unplayable_directions_are_located_and_write_nothing(
+    tmp_path: Path, cli, beats: str, code: str, column: int
+) -> None:
+    path = tmp_path / "shot.yaml"
+    path.write_text(
+        f"schema: 1\ndirection:\n  dog:\n    path: {{points: [[0, 0, 0], [4 HP, 0, 0], [5 HP, 0, 0]]}}\n    beats: {beats}\n"
+    )
+    out = tmp_path / "run.npz"
+    result = cli("simulate", "--controller", "direct", "--direction", str(path), "-s", "1", "-o", str(out))
+    assert result.returncode == 1
+    assert f"{path}:5:{column}: error {code}" in result.stderr
+    assert list(tmp_path.iterdir()) == [path]
+
+
+def test_a_direction_for_an_animal_the_scene_lacks_is_located(tmp_path: Path, cli) -> None:
+    path = write_direction(tmp_path, "cat", {"path": {"points": [[0, 0, 0], ["1 HP", 0, 0]]}, "beats": ["stop"]})
+    result = cli(
+        "simulate", "--controller", "direct", "--direction", str(path), "-s", "1", "-o", str(tmp_path / "r.npz")
+    )
+    assert result.returncode == 1 and "error unknown-animal-ref: there is no animal 'cat'" in result.stderr
+    assert not (tmp_path / "r.npz").exists()
+
+
+def test_following_an_animal_without_a_path_is_located(tmp_path: Path) -> None:
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(
+        "schema: 1\nname: pair\nanimals: [{name: a, at: [0, 0]}, {name: b, at: [0, 2 HP]}]\n"
+        "direction:\n  b: {follow: a}\n"
+    )
+    with pytest.raises(QuadpipeError) as caught:
+        simulated("dog", None, str(scene), 0.1)
+    assert f"{scene}:5:" in str(caught.value) and "error direction-bad-leader" in str(caught.value)
+
+
+CURVE = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 1.0, 0.0], [6.0, 1.0, 0.0]]
+"""A path in metres, drawn as a curve in a set."""
+
+
+def curve_timeline(folder: Path, path: dict) -> np.ndarray:
+    """The dense path of a dog's direction whose `path` is `path`."""
+    direction = write_direction(folder, "dog", {"path": path, "beats": [{"to": 3, "froude": 0.15}]})
+    (timeline,) = played_timelines(direction).values()
+    return timeline.points
+
+
+def played_timelines(direction: Path) -> dict:
+    from quadpipe.sim.simulation import Simulation
+
+    return Simulation.build("dog", None, direction=direction).setup.timelines
+
+
+def write_obj(path: Path) -> Path:
+    lines = [f"v {x} {y} {z}" for x, y, z in CURVE] + ["l " + " ".join(str(k + 1) for k in range(len(CURVE)))]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def write_usd(path: Path) -> Path:
+    """The curve in a Y-up stage in centimetres (as Maya writes it)."""
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 0.01)
+    curves = UsdGeom.BasisCurves.Define(stage, "/set/path")
+    curves.CreatePointsAttr([(100 * x, 100 * z, -100 * y) for x, y, z in CURVE])
+    curves.CreateCurveVertexCountsAttr([len(CURVE)])
+    stage.Save()
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".usda"])
+def test_a_path_may_be_a_curve_drawn_in_the_set(tmp_path: Path, suffix: str) -> None:
+    if suffix != ".obj":
+        pytest.importorskip("pxr")
+    curve = (write_obj if suffix == ".obj" else write_usd)(tmp_path / f"path{suffix}")
+    from_file = curve_timeline(tmp_path, {"file": curve.name, "smooth": True})
+    from_points = curve_timeline(tmp_path, {"points": [[f"{x} m", f"{y} m", 0] for x, y, _ in CURVE], "smooth": True})
+    assert from_file == pytest.approx(from_points)
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [("v 0 0 0\nv 1 0 0\n", "has no polyline"), ("v 0 0 0\nl 1\n", "has 1 point(s)"), ("v 0 x 0\n", "line 1")],
+)
+def test_a_bad_curve_file_is_located(tmp_path: Path, text: str, words: str) -> None:
+    (tmp_path / "path.obj").write_text(text)
+    direction = write_direction(tmp_path, "dog", {"path": {"file": "path.obj"}, "beats": ["stop"]})
+    with pytest.raises(QuadpipeError) as caught:
+        played_timelines(direction)
+    assert f"{direction}:" in str(caught.value) and "error direction-bad-curve" in str(caught.value)
+    assert words in str(caught.value)
+
+
+def test_a_direction_too_long_to_play_is_located(tmp_path: Path) -> None:
+    points = [[f"{2 * k} HP", f"{k % 2} HP", 0] for k in range(64)]
+    beats = [{"to": k, "froude": 0.15} for k in range(1, 64)]
+    direction = write_direction(tmp_path, "dog", {"path": {"points": points, "smooth": True}, "beats": beats})
+    with pytest.raises(QuadpipeError) as caught:
+        played_timelines(direction)
+    assert f"{direction}:3:5: error limit-exceeded: the direction of dog is too long to play" in str(caught.value)
+
+
+# --------------------------------------------------------------------------- shots played
+
+
+STOP_AND_GO = {
+    "path": {"points": [[0, 0, 0], ["6 HP", 0, 0], ["10 HP", 0, 0], ["19 HP", 0, 0]]},
+    "beats": [{"to": 1, "froude": 0.15}, {"hold": "3 s"}, {"to": 2, "froude": 0.15}, {"to": 3, "froude": 0.6}, "stop"],
+}
+"""A walk of over 4 strides, a hold, a walk off from standing, a trot of over 4 strides, a stop."""
+
+
+@pytest.fixture(scope="module", params=["dog", "horse"])
+def stop_and_go(request, tmp_path_factory) -> DirectionReport:
+    animal = request.param
+    path = write_direction(tmp_path_factory.mktemp(animal), animal, STOP_AND_GO)
+    return played(animal, path, None, shot_length(animal, path) + TAIL_S)
+
+
+def shot_length(animal: str, direction: Path | None = None, scene: str | None = None) -> float:
+    """When an animal's shot ends (its timeline's end), seconds."""
+    from quadpipe.sim.simulation import Simulation
+
+    (timeline,) = Simulation.build(animal, None, scene=scene, direction=direction).setup.timelines.values()
+    return timeline.end
+
+
+@pytest.mark.slow
+def test_speed_is_tracked_on_every_long_stretch(stop_and_go: DirectionReport) -> None:
+    long = [b for b in stop_and_go.beats if b.kind == "move" and b.strides >= MEASURED_STRIDES]
+    assert len(long) == 2, "the walk and the trot are long enough to measure"
+    for beat in long:
+        assert abs(beat.speed_error) <= SPEED_TOLERANCE, format_direction(stop_and_go)
+
+
+@pytest.mark.slow
+def test_every_move_arrives_on_time(stop_and_go: DirectionReport) -> None:
+    for beat in (b for b in stop_and_go.beats if b.kind == "move"):
+        assert beat.arrival_error_s is not None, f"beat {beat.beat} never arrived"
+        assert abs(beat.arrival_error_s) <= ARRIVAL_TOLERANCE * stop_and_go.shot_s, format_direction(stop_and_go)
+
+
+@pytest.mark.slow
+def test_stands_have_four_feet_down_and_a_still_pelvis(stop_and_go: DirectionReport) -> None:
+    stands = [b for b in stop_and_go.beats if b.kind in ("hold", "end")]
+    assert len(stands) == 2
+    for beat in stands:
+        assert beat.feet_down == 1.0, format_direction(stop_and_go)
+        assert beat.still_speed_hp < STILL_HP, format_direction(stop_and_go)
+
+
+@pytest.mark.slow
+def test_the_report_is_json_ready(stop_and_go: DirectionReport) -> None:
+    assert json.loads(json.dumps(stop_and_go.to_dict()))["beats"][0]["kind"] == "move"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("animal", ["dog", "horse"])
+def test_a_figure_eight_at_a_walk_stays_on_the_path(animal: str) -> None:
+    scene = DIRECTIONS / "figure_eight.yaml"
+    report = played(animal, None, str(scene), shot_length(animal, scene=str(scene)) + TAIL_S)
+    assert report.lateral_rms_hp is not None and report.lateral_rms_hp <= LOOP_LATERAL_HP, format_direction(report)
+
+
+LANDING_HP = (7.0, 15.0, 0.5)
+"""The stairs scene's landing: from x = 7 HP to 15 HP, 0.5 HP up (configs/scenes/stairs.yaml)."""
+
+STANDING_HP = 0.7
+"""Standing, the pelvis is at least this high above the ground under it."""
+
+
+@pytest.mark.slow
+def test_the_stairs_end_standing_on_the_landing() -> None:
+    from quadpipe.anatomy import roles
+
+    clip = simulated("dog", DIRECTIONS / "stairs_landing.yaml", "stairs", 17.0)
+    (report,) = direction_reports(clip)
+    end = report.beats[-1]
+    assert report.beats[0].arrival_error_s is not None
+    assert abs(report.beats[0].arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s, format_direction(report)
+    assert end.feet_down == 1.0 and end.still_speed_hp < STILL_HP, format_direction(report)
+    track = clip.animals[0]
+    x, _, z = track.positions[-1, roles.ROLES.index("pelvis")] / track.pelvis_height
+    start, stop, height = LANDING_HP
+    assert start < x < stop and z - height > STANDING_HP, f"the pelvis ends at x {x:.2f} HP, {z:.2f} HP up"
+
+
+FORCED_GAITS = {
+    "path": {"points": [[0, 0, 0], ["10 HP", 0, 0], ["22 HP", 0, 0]]},
+    "beats": [{"to": 1, "froude": 0.3, "gait": "trot"}, {"to": 2, "froude": 0.55, "gait": "walk"}],
+}
+"""A trot slower than `auto` would trot, then a walk faster than it would walk."""
+
+
+@pytest.mark.slow
+def test_a_move_may_ask_for_its_gait(tmp_path: Path) -> None:
+    path = write_direction(tmp_path, "dog", FORCED_GAITS)
+    clip = simulated("dog", path, None, 10.0)
+    (report,) = direction_reports(clip)
+    trot, walk = report.beats[:2]
+    assert trot.arrival_s is not None and walk.arrival_s is not None
+    settle = 1.0
+    gaits = [
+        analyze_clip(between(clip, start + settle, end)).animals[0].gait.name
+        for start, end in ((trot.asked_start_s, trot.arrival_s), (trot.arrival_s, walk.arrival_s))
+    ]
+    assert gaits == ["trot", "walk"]
+
+
+HERD_SECONDS = 13.0
+"""The herd scene's shot (10.7 s for the dog) and its final stand."""
+
+HERD_GAP_HP = 1.0
+"""Followers never come closer than this to the leader, pelvis to pelvis, pelvis heights."""
+
+
+@pytest.mark.slow
+def test_a_herd_follows_its_leader_and_keeps_its_distance() -> None:
+    from quadpipe.anatomy import roles
+
+    clip = simulated("dog", None, "herd", HERD_SECONDS)
+    reports = {report.animal: report for report in direction_reports(clip)}
+    assert set(reports) == {"leader", "left", "right"}
+    for report in reports.values():
+        moves = [b for b in report.beats if b.kind == "move"]
+        assert all(b.arrival_error_s is not None for b in moves), format_direction(report)
+        assert all(abs(b.arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s for b in moves), format_direction(report)
+        assert report.beats[-1].feet_down == 1.0, format_direction(report)
+    pelvis = {a.name: a.positions[:, roles.ROLES.index("pelvis"), :2] / a.pelvis_height for a in clip.animals}
+    for follower in ("left", "right"):
+        gap = np.linalg.norm(pelvis[follower] - pelvis["leader"], axis=1)
+        assert gap.min() >= HERD_GAP_HP, f"{follower} came within {gap.min():.2f} HP of the leader"
+
+
+@pytest.mark.parametrize("collide", [True, False])
+def test_animals_collide_with_each_other_only_when_the_scene_says_so(tmp_path: Path, collide: bool) -> None:
+    import mujoco
+
+    from quadpipe.world import build_scene, load_scene
+    from tests.conftest import built_animal
+
+    scene = tmp_path / "pair.yaml"
+    scene.write_text(
+        f"schema: 1\nname: pair\nanimals_collide: {str(collide).lower()}\n"
+        "animals: [{name: a, at: [0, 0]}, {name: b, at: [0, 0], heading: 90 deg}]\n"
+    )
+    setup = build_scene(load_scene(scene), built_animal("dog"))
+    model = setup.spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    owner = [model.body(model.geom_bodyid[g]).name.split("/")[0] for g in range(model.ngeom)]
+    pairs = {tuple(sorted((owner[c.geom1], owner[c.geom2]))) for c in data.contact[: data.ncon]}
+    assert (("a", "b") in pairs) == collide
+    assert ("a", "a") not in pairs and ("b", "b") not in pairs
+
+
+LOOK = {
+    "path": {"points": [[0, 0, 0], ["6 HP", 0, 0]]},
+    "beats": [{"to": 1, "froude": 0.15}, {"hold": "4 s", "look_at": ["6 HP", "4 HP", "0.8 HP"]}, "stop"],
+}
+"""A walk, then a hold looking at a point to the left."""
+
+LOOK_TOLERANCE_DEG = 20.0
+"""At the end of a hold that looks at a point, the neck-to-head line points within this of it (horizontally)."""
+
+
+@pytest.mark.slow
+def test_a_hold_looks_at_its_point(tmp_path: Path) -> None:
+    from quadpipe.anatomy import roles
+
+    path = write_direction(tmp_path, "dog", LOOK)
+    clip = simulated("dog", path, None, shot_length("dog", path))
+    (report,) = direction_reports(clip)
+    hold = report.beats[1]
+    track = clip.animals[0]
+    frame = round((hold.asked_end_s - 0.1) * clip.fps)
+    neck, head = (track.positions[frame, roles.ROLES.index(role), :2] for role in ("neck0", "head"))
+    target = np.array([6.0, 4.0]) * track.pelvis_height
+    looking, wanted = head - neck, target - neck
+    off = np.degrees(np.arctan2(looking[1], looking[0]) - np.arctan2(wanted[1], wanted[0]))
+    assert abs((off + 180) % 360 - 180) <= LOOK_TOLERANCE_DEG
+
+
+TURN_BACK = {
+    "path": {"points": [[0, 0, 0], ["6 HP", 0, 0], [0, 0, 0]]},
+    "beats": [
+        {"to": 1, "froude": 0.15},
+        {"hold": "2 s"},
+        {"turn": "180 deg", "for": "3 s"},
+        {"to": 2, "froude": 0.15},
+        "stop",
+    ],
+}
+"""Walk, stand, turn round on the spot, walk back along the same line."""
+
+IN_PLACE_DEG = 10.0
+IN_PLACE_HP = 0.5
+"""A turn in place (issue #16): by its end the trunk has turned the asked angle within this,
+the pelvis within this of the mark."""
+
+
+def turn_back(animal: str, tmp_path: Path) -> DirectionReport:
+    path = write_direction(tmp_path, animal, TURN_BACK)
+    return played(animal, path, None, shot_length(animal, path) + TAIL_S)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("animal", ["dog", "horse"])
+def test_a_turn_brings_the_animal_round_to_walk_back(tmp_path: Path, animal: str) -> None:
+    report = turn_back(animal, tmp_path)
+    turn = next(b for b in report.beats if b.kind == "turn")
+    back = report.beats[turn.beat + 1]
+    assert back.arrival_error_s is not None, format_direction(report)
+    assert abs(back.arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s, format_direction(report)
+    assert report.beats[-1].feet_down == 1.0, format_direction(report)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="turns on a tight radius, not in place: by the turn's end the dog has turned 156 of 180 degrees "
+    "and stands 0.95 HP from its mark, the horse 158 degrees and 1.13 HP (they finish the turn walking off)",
+)
+@pytest.mark.parametrize("animal", ["dog", "horse"])
+def test_a_turn_is_made_in_place(tmp_path: Path, animal: str) -> None:
+    report = turn_back(animal, tmp_path)
+    turn = next(b for b in report.beats if b.kind == "turn")
+    assert turn.turned_deg is not None and turn.asked_turn_deg is not None and turn.drift_hp is not None
+    assert abs(turn.turned_deg - turn.asked_turn_deg) <= IN_PLACE_DEG, format_direction(report)
+    assert turn.drift_hp <= IN_PLACE_HP, format_direction(report)
+
+
+THE_SHOT = {
+    "path": {"points": [[0, 0, 0], ["6 HP", 0, 0], ["14 HP", 0, 0], ["8 HP", 0, 0]]},
+    "beats": [
+        {"to": 1, "froude": 0.15},
+        {"to": 2, "froude": 0.6},
+        {"hold": "5 s", "pose": "sit"},
+        {"hold": "5 s", "pose": "lie"},
+        {"hold": "2 s"},
+        {"turn": "180 deg", "for": "3 s"},
+        {"to": 3, "froude": 0.15},
+        "stop",
+    ],
+}
+"""Issue #16's shot: walk, trot, stop and sit, lie, stand, turn round, walk back, stop."""
+
+POSTURES_HOLD_S = 3.0
+"""The `postures` controller changes pose every 3 s: standing, sitting, lying."""
+
+SIT_CHEST_UP_HP = 0.2
+"""Sitting, the thorax is at least this much higher than the pelvis."""
+
+
+def pose_heights(clip: Clip, ends: dict[str, float]) -> dict[str, tuple[float, float]]:
+    """Pose -> (pelvis, thorax) height in HP, averaged over the half second ending a second before `ends[pose]`."""
+    from quadpipe.anatomy import roles
+
+    track = clip.animals[0]
+    heights = {}
+    for pose, end in ends.items():
+        frames = slice(round((end - 1.5) * clip.fps), round((end - 1.0) * clip.fps))
+        heights[pose] = tuple(
+            float(track.positions[frames, roles.ROLES.index(role), 2].mean() / track.pelvis_height)
+            for role in ("pelvis", "thorax")
+        )
+    return heights
+
+
+def the_shot(animal: str, tmp_path: Path) -> Clip:
+    path = write_direction(tmp_path, animal, THE_SHOT)
+    return simulated(animal, path, None, shot_length(animal, path) + TAIL_S)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("animal", ["dog", "horse"])
+def test_the_issues_shot_sits_lies_stands_turns_and_walks_back(tmp_path: Path, animal: str) -> None:
+    clip = the_shot(animal, tmp_path)
+    (report,) = direction_reports(clip)
+    moves = [b for b in report.beats if b.kind == "move"]
+    assert all(b.arrival_error_s is not None for b in moves), format_direction(report)
+    assert all(abs(b.arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s for b in moves), format_direction(report)
+    sit = next(b for b in report.beats if b.beat == 2)
+    pelvis, thorax = pose_heights(clip, {"sit": sit.asked_end_s})["sit"]
+    assert thorax - pelvis >= SIT_CHEST_UP_HP, "sitting, the chest stays up"
+    assert report.beats[-1].feet_down == 1.0 and report.beats[-1].still_speed_hp < STILL_HP, format_direction(report)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "animal",
+    [
+        pytest.param(
+            "dog",
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="the dog lies 0.04 HP higher than under postures (pelvis 0.700 HP against 0.662, "
+                "thorax 0.751 against 0.702); it sits lower (0.655 and 0.966 against 0.736 and 1.042)",
+            ),
+        ),
+        "horse",
+    ],
+)
+def test_the_issues_shot_reaches_the_postures_heights(tmp_path: Path, animal: str) -> None:
+    from tests.conftest import cached_simulation
+
+    clip = the_shot(animal, tmp_path)
+    (report,) = direction_reports(clip)
+    sit, lie = (next(b for b in report.beats if b.beat == k) for k in (2, 3))
+    ours = pose_heights(clip, {"sit": sit.asked_end_s, "lie": lie.asked_end_s})
+    postures = cached_simulation(animal, "postures", 3 * POSTURES_HOLD_S).clip
+    theirs = pose_heights(postures, {"sit": 2 * POSTURES_HOLD_S + 1.0, "lie": 3 * POSTURES_HOLD_S + 1.0})
+    for pose in ("sit", "lie"):
+        for k, part in enumerate(("pelvis", "thorax")):
+            assert ours[pose][k] <= theirs[pose][k], (
+                f"{pose} {part}: {ours[pose][k]:.3f} HP, postures {theirs[pose][k]:.3f}"
+            )
