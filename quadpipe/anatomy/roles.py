@@ -111,6 +111,12 @@ def is_front(role: str) -> bool:
     return leg is not None and leg.endswith("f")
 
 
+JOINT_AXES: dict[str, str] = {"twist": "", "swing1": "_swing1", "swing2": "_swing2"}
+"""A joint's axes, as a spring may pick them (`lh_hip.swing1`) -> the suffix of their MuJoCo
+joint after the role: the twist about the bone's main (lateral) axis, swing1 about the forward
+axis, swing2 about the vertical."""
+
+
 def match_roles(pattern: str) -> list[str]:
     """Roles matching a shell-style glob (`*_hip`, `lf_*`, `spine?`), in hierarchy order."""
     return [role for role in ROLES if fnmatchcase(role, pattern)]

@@ -193,6 +193,7 @@ GROUPS: tuple[CodeGroup, ...] = (
             "tunable-not-constant": "a tunable that is not a constant number (formulas go in `parameters:`)",
             "glob-matches-nothing": "a role glob that matches no joint",
             "no-joint": "a spring on the pelvis, which has no joint",
+            "unknown-axis": "a spring joint `role.axis` whose axis is not twist, swing1 or swing2",
             "duplicate-point": "the same body point twice in one mapping",
             "unknown-frame": "a frame that is not heading, world or a role",
             "direction-kind": "a direction with none or several of vector, toward, balance",

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from quadpipe.anatomy.roles import LEGS, PARENT, ROLES, match_roles
+from quadpipe.anatomy.roles import JOINT_AXES, LEGS, PARENT, ROLES, match_roles
 from quadpipe.controllers.language import schema
 from quadpipe.controllers.language.entries import ElementEntry, MergedController, Origin
 from quadpipe.controllers.language.marked import iter_marked
@@ -175,8 +175,17 @@ class ElementChecks:
 
     def _joints(self, path: tuple, patterns: list[str], origin: Origin) -> list[str]:
         roles: list[str] = []
-        for index, pattern in enumerate(patterns):
+        for index, written in enumerate(patterns):
             where = origin.locate(path + (index,))
+            pattern, _, axis = written.partition(".")
+            if axis and axis not in JOINT_AXES:
+                self.error(
+                    "unknown-axis",
+                    f"{written!r} names no axis of a joint: {axis!r}",
+                    where,
+                    f"write the role alone (every axis) or one of: {', '.join(f'{pattern}.{a}' for a in JOINT_AXES)}",
+                )
+                continue
             if pattern == "pelvis":
                 self.error(
                     "no-joint",
@@ -200,7 +209,8 @@ class ElementChecks:
                     where,
                     "globs match roles: spine*, *_hip, lf_*, *_* (all leg joints)",
                 )
-            roles.extend(role for role in matched if role not in roles)
+            selected = [f"{role}.{axis}" if axis else role for role in matched]
+            roles.extend(joint for joint in selected if joint not in roles)
         return roles
 
     # -- per-type rules

@@ -333,7 +333,7 @@ class Spring(_ForceElement):
         Names,
         RoleGlobs(),
         Field(
-            description="Joints by role, one or a list, globs allowed: `spine*`, `*_hip`, `*_*` (every leg joint). A joint is named after the bone below it."
+            description="Joints by role, one or a list, globs allowed: `spine*`, `*_hip`, `*_*` (every leg joint). A joint is named after the bone below it. A spring acts on every axis of a joint (the twist toward `target`, the swings toward 0); `lh_hip.swing1` picks one axis (`twist`, `swing1` about the forward axis, `swing2` about the vertical)."
         ),
     ]
     target: Annotated[

@@ -29,7 +29,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from quadpipe.anatomy.roles import FOOT_BONES, LEGS, ROLES
+from quadpipe.anatomy.roles import FOOT_BONES, JOINT_AXES, LEGS, ROLES
 from quadpipe.animals.library import repertoire_parameters
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
@@ -171,19 +171,23 @@ class ControllerRuntime:
         }
 
     def _spring_tables(self, springs: Sequence[tuple[str, ...]]) -> tuple[list[np.ndarray], ...]:
-        """Per spring: (J, n) dof addresses, qpos addresses, and whether each is a twist."""
+        """Per spring: (J, n) dof addresses, qpos addresses, and whether each is a twist.
+
+        A spring's joints are roles (every axis of the joint) or `role.axis` (that axis only).
+        """
         dofs, qpos, twist = [], [], []
-        for roles in springs:
+        for joints in springs:
             rows_d, rows_q, rows_t = [], [], []
-            for role in roles:
-                for suffix in ("", "_swing1", "_swing2"):
-                    joints = [
+            for joint in joints:
+                role, _, axis = joint.partition(".")
+                for suffix in [JOINT_AXES[axis]] if axis else JOINT_AXES.values():
+                    ids = [
                         mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, f"{p.name}/{role}{suffix}")
                         for p in self.placements
                     ]
-                    if min(joints) >= 0:
-                        rows_d.append(self.model.jnt_dofadr[joints])
-                        rows_q.append(self.model.jnt_qposadr[joints])
+                    if min(ids) >= 0:
+                        rows_d.append(self.model.jnt_dofadr[ids])
+                        rows_q.append(self.model.jnt_qposadr[ids])
                         rows_t.append(np.full(self.n, suffix == ""))
             dofs.append(np.array(rows_d, dtype=np.int64).reshape(-1, self.n))
             qpos.append(np.array(rows_q, dtype=np.int64).reshape(-1, self.n))
