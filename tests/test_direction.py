@@ -605,20 +605,7 @@ def test_the_issues_shot_sits_lies_stands_turns_and_walks_back(the_shot: Callabl
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "animal",
-    [
-        pytest.param(
-            "dog",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="the dog lies 0.04 HP higher than under postures (pelvis 0.700 HP against 0.662, "
-                "thorax 0.751 against 0.702); it sits lower (0.655 and 0.966 against 0.736 and 1.042)",
-            ),
-        ),
-        "horse",
-    ],
-)
+@pytest.mark.parametrize("animal", ["dog", "horse"])
 def test_the_issues_shot_reaches_the_postures_heights(the_shot: Callable[[str], Clip], animal: str) -> None:
     from tests.conftest import cached_simulation
 
