@@ -1,10 +1,11 @@
 """Run by tests/test_blender.py under Blender's Python (bpy from PyPI, .venv-blender):
 
-    python blender_report.py SCRIPT_FOLDER REPORT.json FRAMES CLIP...
+    python blender_report.py SCRIPT_FOLDER CLIPS.json REPORT.json
 
-imports each clip into a fresh empty scene with the shipped script (`quadpipe_import`, found in
-SCRIPT_FOLDER) and writes what Blender made of it as JSON: the scene's frame rate and range,
-every armature (its parent and its bones' world head positions at FRAMES, comma-separated),
+imports each clip of CLIPS.json (`{clip path: [frame, ...]}`) into a fresh empty scene with the
+shipped script (`quadpipe_import`, found in SCRIPT_FOLDER), all in this one Blender process, and
+writes what Blender made of each as JSON, by path: the scene's frame rate and range,
+every armature (its parent and its bones' world head positions at the clip's frames),
 every mesh (its parent, its armature, how many of its vertices carry weight), and every other
 mesh's parent chain, the frames it is shown on (not hidden, not scaled to 0) and its lowest
 world height over those.
@@ -79,15 +80,17 @@ def _report(frames: list[int]) -> dict:
 
 
 def main(argv: list[str]) -> None:
-    folder, output, frames, *clips = argv
+    folder, jobs, output = argv
     sys.path.insert(0, folder)
     import quadpipe_import
 
+    with open(jobs, encoding="utf-8") as stream:
+        frames_by_clip: dict[str, list[int]] = json.load(stream)
     reports = {}
-    for clip in clips:
+    for clip, frames in frames_by_clip.items():
         bpy.ops.wm.read_factory_settings(use_empty=True)
         quadpipe_import.import_clip(clip)
-        reports[clip] = _report([int(f) for f in frames.split(",")])
+        reports[clip] = _report(frames)
     with open(output, "w", encoding="utf-8") as stream:
         json.dump(reports, stream)
 

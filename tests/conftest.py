@@ -37,6 +37,20 @@ def cli():
     return run_cli
 
 
+def invoke_cli(*args: str) -> subprocess.CompletedProcess:
+    """Run the typer app on ARGS in this process (typer's CliRunner), for tests about what a
+    command writes rather than about the process: no interpreter to start, no modules to import
+    again. `quadpipe.cli.main`'s error handling is not in the way, so an error the command
+    raises (a `QuadpipeError` included) propagates and fails the test; typer's own usage errors
+    exit 2 with their message on stderr, as in a real process."""
+    from typer.testing import CliRunner
+
+    from quadpipe.cli import app
+
+    result = CliRunner().invoke(app, list(args), catch_exceptions=False)
+    return subprocess.CompletedProcess(["quadpipe", *args], result.exit_code, result.stdout, result.stderr)
+
+
 @functools.cache
 def cached_simulation(
     animal: str, controller: str, seconds: float, scene: str | None = None, parameters: tuple[tuple[str, str], ...] = ()

@@ -67,7 +67,7 @@ def frames_checked(clip) -> list[int]:
 
 @pytest.fixture(scope="module")
 def reports(clips, files, tmp_path_factory) -> dict[tuple[str, str], dict]:
-    """What Blender made of every file (one Blender process for all)."""
+    """What Blender made of every file (one Blender process imports them all, each into a fresh scene)."""
     if not BLENDER_PYTHON.exists():
         pytest.fail(
             f"Blender's Python ({BLENDER_PYTHON}) is missing: run scripts/install.sh (it runs scripts/install_blender.sh)"
@@ -76,21 +76,17 @@ def reports(clips, files, tmp_path_factory) -> dict[tuple[str, str], dict]:
     (folder / "quadpipe_import.py").write_text(blender_script(), encoding="utf-8")
     lengths = {clip.frame_count for clip in clips.values()}
     assert len(lengths) == len(clips), "the clips' lengths must differ, so each is checked at its own frames"
-    reports = {}
-    for name, clip in clips.items():
-        out = folder / f"{name}.json"
-        paths = [str(files[name, suffix]) for suffix in FORMATS[name]]
-        frames = ",".join(map(str, frames_checked(clip)))
-        result = subprocess.run(
-            [str(BLENDER_PYTHON), str(REPORTER), str(folder), str(out), frames, *paths],
-            capture_output=True,
-            text=True,
-            timeout=BLENDER_TIMEOUT_S,
-        )
-        assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-4000:]
-        by_path = json.loads(out.read_text(encoding="utf-8"))
-        reports.update({(name, suffix): by_path[str(files[name, suffix])] for suffix in FORMATS[name]})
-    return reports
+    jobs, out = folder / "clips.json", folder / "report.json"
+    jobs.write_text(json.dumps({str(path): frames_checked(clips[name]) for (name, _), path in files.items()}))
+    result = subprocess.run(
+        [str(BLENDER_PYTHON), str(REPORTER), str(folder), str(jobs), str(out)],
+        capture_output=True,
+        text=True,
+        timeout=BLENDER_TIMEOUT_S,
+    )
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-4000:]
+    by_path = json.loads(out.read_text(encoding="utf-8"))
+    return {key: by_path[str(path)] for key, path in files.items()}
 
 
 def test_the_cli_writes_the_shipped_script(cli, tmp_path):

@@ -215,11 +215,13 @@ def insert_byte(data: bytes, rng: random.Random) -> tuple[bytes, str]:
     return data[:at] + byte + data[at:], f"{byte!r} inserted at byte {at}"
 
 
+@functools.cache
 def make_case(seed: int) -> Case:
     """The seed's file and its mutated bytes: one mutation, or two one time in four.
 
     Text mutations need a text that still parses; a byte mutation (truncation, an odd byte)
-    comes last.
+    comes last. Cached (a `Case` is frozen): the seeds' test items and the test of the mutations
+    themselves share one making of each case.
     """
     rng = random.Random(seed)
     kind = KINDS[seed % len(KINDS)]

@@ -16,6 +16,7 @@ from quadpipe.cli.media import View
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.exporters.npz import export_npz
 from tests.clips import dog_clip
+from tests.conftest import invoke_cli
 
 WIDTH, HEIGHT = 160, 120
 FRAME = 0
@@ -80,17 +81,18 @@ def test_the_command_line_offers_every_view():
     assert sorted(view.value for view in View) == sorted(render.VIEWS)
 
 
-def test_render_view_option_changes_the_picture(cli, tmp_path):
+def test_render_view_option_changes_the_picture(tmp_path):
+    """In process: the option and the pictures are what is checked, not the process around them."""
     clip = tmp_path / "dog.npz"
     export_npz(dog_clip(), clip)
     pictures = {}
     for view in ("side", "rear"):
         path = tmp_path / f"{view}.png"
-        result = cli("render", str(clip), "-o", str(path), "--view", view, "--width", "160", "--height", "120")
+        result = invoke_cli("render", str(clip), "-o", str(path), "--view", view, "--width", "160", "--height", "120")
         assert result.returncode == 0, result.stderr
         pictures[view] = np.asarray(Image.open(path))
     assert np.abs(pictures["side"].astype(int) - pictures["rear"].astype(int)).max(axis=2).mean() > 10
-    result = cli("render", str(clip), "-o", str(tmp_path / "x.png"), "--view", "below")
+    result = invoke_cli("render", str(clip), "-o", str(tmp_path / "x.png"), "--view", "below")
     assert result.returncode != 0 and "below" in result.stderr
 
 
