@@ -16,9 +16,10 @@ import numpy as np
 import pytest
 
 from quadpipe.analysis.carriage import JOINTS, TAIL_TOUCH_HP, flexion, posture_report
-from quadpipe.analysis.footfalls import rotate, toe_tips
+from quadpipe.analysis.footfalls import rotate, runs, toe_tips
 from quadpipe.analysis.ground import ground_height, lowest_point_slides
 from quadpipe.anatomy.roles import FOOT_BONES, LEGS, PARENT, ROLES, TAIL, leg_chain
+from quadpipe.animals.sizing import natural_time
 from quadpipe.clip.model import AnimalTrack, Clip, Shape
 
 HP_M = 0.5
@@ -328,6 +329,22 @@ def test_a_foot_lifted_in_swing_measures_its_clearance():
     assert posture.legs["lh"].swing_clearance_hp == pytest.approx(lift_hp)
     assert posture.legs["rh"].swing_clearance_hp == pytest.approx(0.0, abs=1e-9)
     assert posture.lowest("swing_clearance_hp") == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_foot_coming_down_measures_its_touchdown_speed():
+    dog = StickDog()
+    dog.contacts = contacts()
+    speed_m_s = 0.4
+    swing = ~dog.contacts[:, LEGS.index("lh")]
+    height = np.zeros(FRAMES)
+    for start, stop in runs(swing, True):
+        height[start:stop] = speed_m_s / FPS * np.arange(stop - start, 0, -1)  # down to the ground at `stop`
+    for bone in FOOT_BONES["lh"]:
+        dog.offsets[:, ROLES.index(bone), 2] = height
+    posture = measure(dog)
+    assert posture.legs["lh"].touchdown_speed == pytest.approx(speed_m_s * natural_time(HP_M) / HP_M, rel=1e-6)
+    assert posture.legs["rh"].touchdown_speed == pytest.approx(0.0, abs=1e-9)
+    assert posture.worst("touchdown_speed") == posture.legs["lh"].touchdown_speed
 
 
 def test_a_toe_pushed_forward_before_lift_off_measures_its_drag():

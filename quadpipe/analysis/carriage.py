@@ -48,6 +48,9 @@ DRAG_FRACTION = 0.25
 SWING_MIDDLE = (0.25, 0.75)
 """Swing clearance is measured over the middle half of each swing: lift-off and landing left out."""
 
+TOUCHDOWN_FRAMES = 2
+"""A touchdown's speed is the foot's fastest descent over this many frames up to its landing frame."""
+
 TAIL_TOUCH_HP = 0.01
 """A tail shape whose lowest point is within this many HP of the ground touches it."""
 
@@ -206,6 +209,9 @@ def _leg_posture(clip: Clip, track: AnimalTrack, leg: str, contact: np.ndarray, 
     depth = None if low is None else -height_above_ground(clip, low) / hp
     swings = [(a, b) for a, b in runs(contact, False) if a > 0 and b < len(contact)]
     clearances = [] if depth is None else [_clearance(-depth, a, b) for a, b in swings]
+    landings = [a for a, _ in runs(contact, True) if a >= TOUCHDOWN_FRAMES]
+    frames_per_natural_time = clip.fps * natural_time(hp)
+    speeds = [] if depth is None else [_touchdown_descent(-depth, a) * frames_per_natural_time for a in landings]
     return LegPosture(
         leg=leg,
         joints=joints,
@@ -217,6 +223,7 @@ def _leg_posture(clip: Clip, track: AnimalTrack, leg: str, contact: np.ndarray, 
         penetration_dynamic_hp=None if depth is None else float(depth.max()),
         penetration_rest_hp=None if depth is None or not core.any() else float(np.median(depth[core])),
         swing_clearance_hp=min(clearances, default=None),
+        touchdown_speed=max(speeds, default=None),
     )
 
 
@@ -251,6 +258,11 @@ def _clearance(height: np.ndarray, start: int, stop: int) -> float:
     """The foot's lowest height above the ground over the middle of one swing (`SWING_MIDDLE`)."""
     first, last = (start + round(share * (stop - start)) for share in SWING_MIDDLE)
     return float(height[first : max(last, first + 1)].min())
+
+
+def _touchdown_descent(height: np.ndarray, landing: int) -> float:
+    """The foot's fastest descent (HP per frame, positive down) over the frames up to a landing."""
+    return float(max(0.0, -np.diff(height[landing - TOUCHDOWN_FRAMES : landing + 1]).min()))
 
 
 def _mean(values: list[float]) -> float | None:

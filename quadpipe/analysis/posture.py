@@ -68,6 +68,9 @@ class LegPosture:
         swing_clearance_hp: over complete swings, the lowest height of the foot's lowest point
             above the ground in the middle half of a swing, worst swing (None: no complete
             swing or no foot shapes; negative: the foot scuffs or sinks mid-swing).
+        touchdown_speed: the largest downward speed of the foot's lowest point over the frames
+            just before a touchdown, in natural velocities sqrt(g HP) (None: no touchdown
+            measured or no foot shapes).
     """
 
     leg: str
@@ -80,6 +83,7 @@ class LegPosture:
     penetration_dynamic_hp: float | None
     penetration_rest_hp: float | None
     swing_clearance_hp: float | None = None
+    touchdown_speed: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready figures."""
@@ -93,6 +97,7 @@ class LegPosture:
             "penetration_dynamic_hp": self.penetration_dynamic_hp,
             "penetration_rest_hp": self.penetration_rest_hp,
             "swing_clearance_hp": self.swing_clearance_hp,
+            "touchdown_speed": self.touchdown_speed,
         }
 
 
@@ -212,6 +217,7 @@ class AnimalPosture:
                 "penetration_dynamic_hp": self.worst("penetration_dynamic_hp"),
                 "penetration_rest_hp": self.worst("penetration_rest_hp"),
                 "swing_clearance_hp": self.lowest("swing_clearance_hp"),
+                "touchdown_speed": self.worst("touchdown_speed"),
             },
             "notes": list(self.notes),
         }
