@@ -16,9 +16,10 @@ import numpy as np
 import pytest
 
 from quadpipe.analysis.carriage import JOINTS, TAIL_TOUCH_HP, flexion, posture_report
-from quadpipe.analysis.footfalls import rotate, toe_tips
-from quadpipe.analysis.ground import ground_height
+from quadpipe.analysis.footfalls import rotate, runs, toe_tips
+from quadpipe.analysis.ground import ground_height, lowest_point_slides
 from quadpipe.anatomy.roles import FOOT_BONES, LEGS, PARENT, ROLES, TAIL, leg_chain
+from quadpipe.animals.sizing import natural_time
 from quadpipe.clip.model import AnimalTrack, Clip, Shape
 
 HP_M = 0.5
@@ -295,6 +296,55 @@ def test_a_foot_sliding_in_stance_measures_its_slip():
     assert posture.worst("slip_max_hp") == pytest.approx(slide_hp)
     for leg in ("lf", "lh", "rh"):
         assert posture.legs[leg].slip_max_hp == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_toe_rolling_over_the_ground_does_not_slide_and_a_skating_one_does():
+    dog = StickDog()
+    toe = ROLES.index(FOOT_BONES["rf"][1])
+    radius = dog.shapes[toe][0].size[0]
+    end = dog.end[toe]
+    angles = np.radians(np.linspace(0.0, 20.0, FRAMES))
+    quats = np.array([about_y(math.degrees(a)) for a in angles])
+    # Rolling: turned about its end's centre, which moves forward by radius x angle.
+    dog.rotations[:, toe] = quats
+    dog.offsets[:, toe] = end + rotate(quats, dog.start[toe] - end) - dog.start[toe]
+    dog.offsets[:, toe, 0] += radius * angles
+    rolling = lowest_point_slides(dog.track(), [toe], slice(None))
+    assert np.abs(rolling).sum(axis=0)[:2] == pytest.approx([0.0, 0.0], abs=1e-3 * HP_M)
+    # Skating: the same toe, unturned, pushed sideways.
+    skate = StickDog()
+    skate.offsets[:, toe, 1] = np.linspace(0.0, 0.05 * HP_M, FRAMES)
+    sliding = lowest_point_slides(skate.track(), [toe], slice(None))
+    assert sliding.sum(axis=0)[:2] == pytest.approx([0.0, 0.05 * HP_M])
+
+
+def test_a_foot_lifted_in_swing_measures_its_clearance():
+    dog = StickDog()
+    dog.contacts = contacts()
+    lift_hp = 0.04
+    swing = ~dog.contacts[:, LEGS.index("lh")]
+    for bone in FOOT_BONES["lh"]:
+        dog.offsets[:, ROLES.index(bone), 2] = lift_hp * HP_M * swing
+    posture = measure(dog)
+    assert posture.legs["lh"].swing_clearance_hp == pytest.approx(lift_hp)
+    assert posture.legs["rh"].swing_clearance_hp == pytest.approx(0.0, abs=1e-9)
+    assert posture.lowest("swing_clearance_hp") == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_foot_coming_down_measures_its_touchdown_speed():
+    dog = StickDog()
+    dog.contacts = contacts()
+    speed_m_s = 0.4
+    swing = ~dog.contacts[:, LEGS.index("lh")]
+    height = np.zeros(FRAMES)
+    for start, stop in runs(swing, True):
+        height[start:stop] = speed_m_s / FPS * np.arange(stop - start, 0, -1)  # down to the ground at `stop`
+    for bone in FOOT_BONES["lh"]:
+        dog.offsets[:, ROLES.index(bone), 2] = height
+    posture = measure(dog)
+    assert posture.legs["lh"].touchdown_speed == pytest.approx(speed_m_s * natural_time(HP_M) / HP_M, rel=1e-6)
+    assert posture.legs["rh"].touchdown_speed == pytest.approx(0.0, abs=1e-9)
+    assert posture.worst("touchdown_speed") == posture.legs["lh"].touchdown_speed
 
 
 def test_a_toe_pushed_forward_before_lift_off_measures_its_drag():

@@ -16,7 +16,8 @@ Columns (worst leg where per leg; flexion is beyond the standing angle, positive
 elbow, carpus, knee, hock: largest stance flexion, degrees; pelvis: mean pelvis height over
 standing; roll: pelvis roll amplitude, degrees; head: mean head height change, HP; tail: % of
 frames some tail shape touches the ground; slip, drag: largest foot slip and toe drag of a
-stance, % HP; pen dyn/rest: deepest and median stance penetration of a foot, % HP.
+stance, % HP; pen dyn/rest: deepest and median stance penetration of a foot, % HP; clear: lowest
+swing clearance of a foot, % HP; touchdown: fastest descent of a foot as it lands, natural velocities.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ FAR_GOAL = "[1000 HP, 0, 0]"
 
 HEADER = (
     "| animal | gait | measured gait | elbow° | carpus° | knee° | hock° | pelvis | roll° | head HP "
-    "| tail % | slip %HP | drag %HP | pen dyn/rest %HP |"
+    "| tail % | slip %HP | drag %HP | pen dyn/rest %HP | clear %HP | touchdown |"
 )
 
 
@@ -122,6 +123,8 @@ def row(data: dict[str, Any]) -> str:
         percent(worst["slip_max_hp"]),
         percent(worst["toe_drag_max_hp"]),
         f"{percent(worst['penetration_dynamic_hp'])}/{percent(worst['penetration_rest_hp'])}",
+        percent(worst["swing_clearance_hp"]),
+        "-" if worst["touchdown_speed"] is None else f"{worst['touchdown_speed']:.2f}",
     ]
     return "| " + " | ".join(cells) + " |"
 

@@ -21,7 +21,7 @@ from quadpipe.analysis.footfalls import (
     toe_tips,
 )
 from quadpipe.analysis.gait import REFERENCE_LEG
-from quadpipe.analysis.ground import ground_height, lowest_points
+from quadpipe.analysis.ground import ground_height, lowest_point_slides, lowest_points
 from quadpipe.analysis.posture import (
     AnimalPosture,
     HeadTailPosture,
@@ -44,6 +44,12 @@ lift-off transients."""
 
 DRAG_FRACTION = 0.25
 """Toe drag is the toe tip's forward travel over the last quarter of each stance."""
+
+SWING_MIDDLE = (0.25, 0.75)
+"""Swing clearance is measured over the middle half of each swing: lift-off and landing left out."""
+
+TOUCHDOWN_FRAMES = 2
+"""A touchdown's speed is the foot's fastest descent over this many frames up to its landing frame."""
 
 TAIL_TOUCH_HP = 0.01
 """A tail shape whose lowest point is within this many HP of the ground touches it."""
@@ -195,11 +201,17 @@ def _leg_posture(clip: Clip, track: AnimalTrack, leg: str, contact: np.ndarray, 
     hp = track.pelvis_height
     foot = [track.roles.index(bone) for bone in roles.FOOT_BONES[leg]]
     low = lowest_points(track, foot, window)
-    slips = [] if low is None else [_slip(low[:, :2], a, b) / hp for a, b in complete]
+    slides = lowest_point_slides(track, foot, window)
+    slips = [] if slides is None else [_slip(slides[:, :2], a, b) / hp for a, b in complete]
     tip = toe_tips(track)[leg][window]
     forward = heading(track, "thorax" if leg.endswith("f") else "pelvis", window)
     drags = [_drag(tip, forward, a, b) / hp for a, b in complete]
     depth = None if low is None else -height_above_ground(clip, low) / hp
+    swings = [(a, b) for a, b in runs(contact, False) if a > 0 and b < len(contact)]
+    clearances = [] if depth is None else [_clearance(-depth, a, b) for a, b in swings]
+    landings = [a for a, _ in runs(contact, True) if a >= TOUCHDOWN_FRAMES]
+    frames_per_natural_time = clip.fps * natural_time(hp)
+    speeds = [] if depth is None else [_touchdown_descent(-depth, a) * frames_per_natural_time for a in landings]
     return LegPosture(
         leg=leg,
         joints=joints,
@@ -210,6 +222,8 @@ def _leg_posture(clip: Clip, track: AnimalTrack, leg: str, contact: np.ndarray, 
         toe_drag_max_hp=max(drags, default=None),
         penetration_dynamic_hp=None if depth is None else float(depth.max()),
         penetration_rest_hp=None if depth is None or not core.any() else float(np.median(depth[core])),
+        swing_clearance_hp=min(clearances, default=None),
+        touchdown_speed=max(speeds, default=None),
     )
 
 
@@ -225,11 +239,12 @@ def _joint_flexion(name: str, stance: np.ndarray, swing: np.ndarray) -> JointFle
     )
 
 
-def _slip(low_xy: np.ndarray, start: int, stop: int) -> float:
-    """How far (m) the foot's lowest point strays horizontally from where it settled, over the stance's core."""
+def _slip(slides_xy: np.ndarray, start: int, stop: int) -> float:
+    """How far (m) the foot slides horizontally from where it settled over the stance's core:
+    the largest distance of the summed slides of its lowest point (rolling over it is no slide)."""
     trim = int(STANCE_TRIM_FRACTION * (stop - start))
-    core = low_xy[start + trim : stop - trim]
-    return float(np.linalg.norm(core - core[0], axis=1).max()) if len(core) else 0.0
+    path = np.cumsum(slides_xy[start + trim : stop - trim - 1], axis=0)
+    return float(np.linalg.norm(path, axis=1).max()) if len(path) else 0.0
 
 
 def _drag(tip: np.ndarray, forward: np.ndarray, start: int, stop: int) -> float:
@@ -237,6 +252,17 @@ def _drag(tip: np.ndarray, forward: np.ndarray, start: int, stop: int) -> float:
     begin = stop - max(1, round(DRAG_FRACTION * (stop - start)))
     travel = ((tip[begin:stop, :2] - tip[begin, :2]) * forward[begin, :2]).sum(axis=1)
     return float(max(0.0, travel.max()))
+
+
+def _clearance(height: np.ndarray, start: int, stop: int) -> float:
+    """The foot's lowest height above the ground over the middle of one swing (`SWING_MIDDLE`)."""
+    first, last = (start + round(share * (stop - start)) for share in SWING_MIDDLE)
+    return float(height[first : max(last, first + 1)].min())
+
+
+def _touchdown_descent(height: np.ndarray, landing: int) -> float:
+    """The foot's fastest descent (HP per frame, positive down) over the frames up to a landing."""
+    return float(max(0.0, -np.diff(height[landing - TOUCHDOWN_FRAMES : landing + 1]).min()))
 
 
 def _mean(values: list[float]) -> float | None:

@@ -45,7 +45,7 @@ def _box_top(centre: np.ndarray, quat: np.ndarray, half: np.ndarray, points: np.
     """Where downward vertical rays over `points` first enter an oriented box (NaN: they miss it)."""
     inverse = quat * np.array([1.0, -1.0, -1.0, -1.0])
     starts = np.column_stack([points, np.full(len(points), RAY_START_Z_M)]) - centre
-    origin = _rotate_each(inverse, starts)
+    origin = _rotate_pairs(inverse, starts)
     direction = rotate(inverse, np.array([0.0, 0.0, -1.0]))[0]
     with np.errstate(divide="ignore", invalid="ignore"):
         low = (-half - origin) / direction
@@ -57,14 +57,6 @@ def _box_top(centre: np.ndarray, quat: np.ndarray, half: np.ndarray, points: np.
     leave = far.min(axis=1)
     hit = inside_slab.all(axis=1) & (enter <= leave) & (leave >= 0.0)
     return np.where(hit, RAY_START_Z_M - np.maximum(enter, 0.0), np.nan)
-
-
-def _rotate_each(quat: np.ndarray, vectors: np.ndarray) -> np.ndarray:
-    """Rotate each of (N, 3) vectors by one (1, 4) quaternion."""
-    w = quat[0, 0]
-    axis = quat[0, 1:]
-    twice_cross = 2.0 * np.cross(axis, vectors)
-    return vectors + w * twice_cross + np.cross(axis, twice_cross)
 
 
 def lowest_points(track: AnimalTrack, bones: list[int], frames: slice) -> np.ndarray | None:
@@ -84,6 +76,59 @@ def lowest_points(track: AnimalTrack, bones: list[int], frames: slice) -> np.nda
     stacked = np.stack(candidates)
     lowest = np.argmin(stacked[:, :, 2], axis=0)
     return stacked[lowest, np.arange(stacked.shape[1])]
+
+
+def lowest_point_slides(track: AnimalTrack, bones: list[int], frames: slice) -> np.ndarray | None:
+    """Per pair of consecutive frames, how far the bones' lowest point slides: (F - 1, 3) metres.
+
+    The lowest point of a frame is followed as a point of its bone to the next frame (a
+    capsule's or a sphere's on its cap under the centre, a box's corner), so a foot that
+    rolls or pivots over the ground without sliding does not move it; a foot that skates
+    does (None: no shapes).
+    """
+    points, moved = [], []
+    for bone in bones:
+        position = track.positions[frames, bone]
+        rotation = track.rotations[frames, bone]
+        for shape in track.shapes[bone]:
+            for point, successor in _shape_low_motions(shape, position, rotation):
+                points.append(point)
+                moved.append(successor)
+    if not points:
+        return None
+    stacked = np.stack(points)
+    lowest = np.argmin(stacked[:, :-1, 2], axis=0)
+    steps = np.arange(stacked.shape[1] - 1)
+    return np.stack(moved)[lowest, steps] - stacked[lowest, steps]
+
+
+def _shape_low_motions(shape: Shape, position: np.ndarray, rotation: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per candidate lowest point of one shape: the point each frame (F, 3) and where that
+    point of the bone is one frame later (F - 1, 3)."""
+    if shape.kind == "box":
+        corners = _shape_low_points(shape, position, rotation)
+        return [(corner, corner[1:]) for corner in corners]
+    centre = position + rotate(rotation, np.asarray(shape.pos, dtype=float))
+    centres = [centre]
+    if shape.kind == "capsule":
+        local = np.asarray(shape.quat, dtype=float)[None, :]
+        axis = rotate(rotation, rotate(local, np.array([0.0, 0.0, shape.size[1]]))[0])
+        centres = [centre + axis, centre - axis]
+    elif shape.kind != "sphere":
+        return []
+    radius = shape.size[0]
+    below = radius * np.array([0.0, 0.0, 1.0])
+    inverse = rotation * np.array([1.0, -1.0, -1.0, -1.0])
+    carried = _rotate_pairs(rotation[1:], rotate(inverse[:-1], below))
+    return [(end - below, end[1:] - carried) for end in centres]
+
+
+def _rotate_pairs(quat: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """Rotate each of (N, 3) vectors by its own of (N, 4) quaternions (or all by one (1, 4))."""
+    w = quat[:, :1]
+    axis = quat[:, 1:]
+    twice_cross = 2.0 * np.cross(axis, vectors)
+    return vectors + w * twice_cross + np.cross(axis, twice_cross)
 
 
 def _shape_low_points(shape: Shape, position: np.ndarray, rotation: np.ndarray) -> list[np.ndarray]:

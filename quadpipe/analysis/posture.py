@@ -65,6 +65,12 @@ class LegPosture:
         penetration_dynamic_hp: deepest any foot shape goes below the ground, any frame (None:
             the foot has no shapes).
         penetration_rest_hp: median depth of the foot's lowest point over its stance frames.
+        swing_clearance_hp: over complete swings, the lowest height of the foot's lowest point
+            above the ground in the middle half of a swing, worst swing (None: no complete
+            swing or no foot shapes; negative: the foot scuffs or sinks mid-swing).
+        touchdown_speed: the largest downward speed of the foot's lowest point over the frames
+            just before a touchdown, in natural velocities sqrt(g HP) (None: no touchdown
+            measured or no foot shapes).
     """
 
     leg: str
@@ -76,6 +82,8 @@ class LegPosture:
     toe_drag_max_hp: float | None
     penetration_dynamic_hp: float | None
     penetration_rest_hp: float | None
+    swing_clearance_hp: float | None = None
+    touchdown_speed: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready figures."""
@@ -88,6 +96,8 @@ class LegPosture:
             "toe_drag_max_hp": self.toe_drag_max_hp,
             "penetration_dynamic_hp": self.penetration_dynamic_hp,
             "penetration_rest_hp": self.penetration_rest_hp,
+            "swing_clearance_hp": self.swing_clearance_hp,
+            "touchdown_speed": self.touchdown_speed,
         }
 
 
@@ -183,6 +193,11 @@ class AnimalPosture:
         values = [getattr(leg, figure) for leg in self.legs.values() if getattr(leg, figure) is not None]
         return max(values, default=None)
 
+    def lowest(self, figure: str) -> float | None:
+        """The smallest value of a `LegPosture` figure over the legs (None: no leg measured it)."""
+        values = [getattr(leg, figure) for leg in self.legs.values() if getattr(leg, figure) is not None]
+        return min(values, default=None)
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready figures (angles in degrees, lengths in HP)."""
         return {
@@ -201,6 +216,8 @@ class AnimalPosture:
                 "toe_drag_max_hp": self.worst("toe_drag_max_hp"),
                 "penetration_dynamic_hp": self.worst("penetration_dynamic_hp"),
                 "penetration_rest_hp": self.worst("penetration_rest_hp"),
+                "swing_clearance_hp": self.lowest("swing_clearance_hp"),
+                "touchdown_speed": self.worst("touchdown_speed"),
             },
             "notes": list(self.notes),
         }

@@ -78,7 +78,7 @@ def format_posture(p: AnimalPosture) -> str:
         f" neck {h.neck_angle_deg:+.1f} deg",
         f"    tail: on the ground {tail} of frames, base {h.tail_elevation_deg:+.1f} deg"
         f" (standing {h.tail_elevation_rest_deg:+.1f})",
-        "    foot  stance flexion max/mean/min (deg; + closes)                  slip  drag  sink dyn/rest (%HP)",
+        "    foot  stance flexion max/mean/min (deg; + closes)                  slip  drag  sink dyn/rest  clear (%HP)",
     ]
     lines.extend(_format_leg(p.legs[leg]) for leg in HILDEBRAND_ORDER)
     lines.extend(f"  note: {note}" for note in p.notes)
@@ -92,7 +92,7 @@ def _format_leg(leg: LegPosture) -> str:
     )
     return (
         f"    {leg.leg.upper():4}  {joints:<60}  {_percent(leg.slip_max_hp):>4}  {_percent(leg.toe_drag_max_hp):>4}"
-        f"  {_percent(leg.penetration_dynamic_hp)}/{_percent(leg.penetration_rest_hp)}"
+        f"  {_percent(leg.penetration_dynamic_hp)}/{_percent(leg.penetration_rest_hp)}  {_percent(leg.swing_clearance_hp)}"
     )
 
 
