@@ -31,7 +31,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -135,6 +135,7 @@ class Plan:
         render_frames: frames rendered per measurement.
         batch_animals: animals of the batch benchmark (None: all).
         batch_seconds: simulated seconds of each batch job.
+        controller_animals: the animals of the `controllers` section (None: all; `--animals`).
     """
 
     name: str
@@ -152,6 +153,7 @@ class Plan:
     render_frames: int
     batch_animals: tuple[str, ...] | None
     batch_seconds: float
+    controller_animals: tuple[str, ...] | None = None
 
 
 FULL = Plan(
@@ -366,7 +368,7 @@ def bench_controllers(ctx: Context) -> Section:
     from quadpipe.world import load_scene
 
     rows = []
-    for animal, controllers in controller_pairs(ctx.plan.all_pairs).items():
+    for animal, controllers in controller_pairs(ctx.plan.all_pairs, ctx.plan.controller_animals).items():
         try:
             world = World.build(load_scene(BENCH_SCENE), build_animal(load_animal(animal)))
         except Exception as exc:  # an animal that cannot be built is recorded, the others still run
@@ -378,16 +380,19 @@ def bench_controllers(ctx: Context) -> Section:
         rows,
         [
             f"{ctx.plan.controller_seconds:g} s simulated per repetition, {ctx.plan.repeats} repetitions, scene `{BENCH_SCENE}`;"
-            " overhead = with / bare - 1; realtime = simulated s per wall s"
+            " overhead = with / bare - 1; own = time inside the controller's `apply` per step (a separate run),"
+            " own_share = own / bare; realtime = simulated s per wall s"
         ],
     )
 
 
-def controller_pairs(all_pairs: bool) -> dict[str, list[str]]:
-    """Animal -> the shipped controllers to time on it (all, or the cross through dog and spine_walk)."""
+def controller_pairs(all_pairs: bool, only: Sequence[str] | None = None) -> dict[str, list[str]]:
+    """Animal -> the shipped controllers to time on it (all, or the cross through dog and spine_walk),
+    for the animals of `only` (None: every animal)."""
     from quadpipe.core import configs
 
     animals, controllers = configs.available("animals"), configs.available("controllers")
+    animals = [animal for animal in animals if only is None or animal in only]
     if all_pairs:
         return {animal: controllers for animal in animals}
     return {animal: controllers if animal == CROSS_ANIMAL else [CROSS_CONTROLLER] for animal in animals}
@@ -402,6 +407,7 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
     labels = {"animal": animal, "controller": controller}
     steps = world.steps(plan.controller_seconds)
     controlled: list[float] = []
+    own: list[float] = []
     bare: list[float] = []
     statuses: list[str] = []
     try:
@@ -410,20 +416,47 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
             run = world.controlled_run(controller)
             controlled.append(timed(lambda run=run: step_run(run, steps)))
             statuses.append(world.status())
+            own.append(controllers_time(world.controlled_run(controller), steps))
             world.reset()
             bare.append(timed(lambda: world.step_bare(steps)))
     except Exception as exc:  # measure anyway: one failing controller must not stop the benchmark
         return Row(labels, status=error_text(exc))
     simulated = steps * world.model.opt.timestep
-    return Row(labels, step_figures(controlled, bare, steps, simulated), worst_status(statuses))
+    return Row(labels, step_figures(controlled, own, bare, steps, simulated), worst_status(statuses))
 
 
-def step_figures(controlled: Sequence[float], bare: Sequence[float], steps: int, simulated: float) -> dict[str, Figure]:
+class TimedController:
+    """A controller whose `apply` adds the wall seconds it takes to `seconds`."""
+
+    def __init__(self, controller: Any):
+        self.controller, self.seconds = controller, 0.0
+
+    def apply(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """The controller's `apply`, timed."""
+        start = time.perf_counter()
+        self.controller.apply(model, data)
+        self.seconds += time.perf_counter() - start
+
+
+def controllers_time(run: Simulation, steps: int) -> float:
+    """`steps` steps of `run` as `step_run` takes them; the wall seconds spent inside its
+    controllers' `apply` (the controller's own cost, without the physics of the motion it makes)."""
+    timers = [TimedController(controller) for controller in run.controllers]
+    run.controllers = timers
+    step_run(run, steps)
+    return sum(timer.seconds for timer in timers)
+
+
+def step_figures(
+    controlled: Sequence[float], own: Sequence[float], bare: Sequence[float], steps: int, simulated: float
+) -> dict[str, Figure]:
     """Per-step costs, overhead and real-time factors from paired wall times."""
     return {
         "with": figure([1e6 * s / steps for s in controlled], "us/step"),
         "bare": figure([1e6 * s / steps for s in bare], "us/step"),
         "overhead": figure([r - 1.0 for r in paired(controlled, bare)], "x bare"),
+        "own": figure([1e6 * s / steps for s in own], "us/step"),
+        "own_share": figure(paired(own, bare), "x bare"),
         "realtime": figure([simulated / s for s in controlled], "x realtime", "higher"),
         "bare_realtime": figure([simulated / s for s in bare], "x realtime", "higher"),
     }
@@ -1075,6 +1108,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         help=f"run only these sections: {', '.join(SECTIONS)}",
     )
     parser.add_argument(
+        "--animals",
+        nargs="+",
+        metavar="ANIMAL",
+        help="time the controllers section on these animals only (e.g. --animals dog)",
+    )
+    parser.add_argument(
         "--compare",
         nargs="+",
         type=Path,
@@ -1094,7 +1133,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print_comparison(load_report(args.compare[0]), load_report(args.compare[1]))
         return 0
     old = load_report(args.compare[0]) if args.compare else None
-    report = run_benchmarks(QUICK if args.quick else FULL, args.only or list(SECTIONS))
+    plan = QUICK if args.quick else FULL
+    if args.animals:
+        plan = replace(plan, controller_animals=tuple(args.animals))
+    report = run_benchmarks(plan, args.only or list(SECTIONS))
     from quadpipe.core.atomic import write_text
 
     args.json.parent.mkdir(parents=True, exist_ok=True)
