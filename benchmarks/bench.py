@@ -136,6 +136,8 @@ class Plan:
         batch_animals: animals of the batch benchmark (None: all).
         batch_seconds: simulated seconds of each batch job.
         controller_animals: the animals of the `controllers` section (None: all; `--animals`).
+        cpu_time: the `controllers` section counts this thread's CPU time instead of wall time
+            (`--cpu-time`: on a machine loaded beyond its cores, wall time is mostly waiting).
     """
 
     name: str
@@ -154,6 +156,7 @@ class Plan:
     batch_animals: tuple[str, ...] | None
     batch_seconds: float
     controller_animals: tuple[str, ...] | None = None
+    cpu_time: bool = False
 
 
 FULL = Plan(
@@ -259,11 +262,16 @@ class Context:
         return self.clip
 
 
-def timed(action: Callable[[], Any]) -> float:
-    """Wall seconds `action()` takes."""
-    start = time.perf_counter()
+def timed(action: Callable[[], Any], clock: Callable[[], float] = time.perf_counter) -> float:
+    """Seconds `action()` takes on `clock` (wall time unless told)."""
+    start = clock()
     action()
-    return time.perf_counter() - start
+    return clock() - start
+
+
+def step_clock(plan: Plan) -> Callable[[], float]:
+    """The clock of the `controllers` section: this thread's CPU time or wall time (`Plan.cpu_time`)."""
+    return time.thread_time if plan.cpu_time else time.perf_counter
 
 
 def error_text(exc: BaseException) -> str:
@@ -381,7 +389,8 @@ def bench_controllers(ctx: Context) -> Section:
         [
             f"{ctx.plan.controller_seconds:g} s simulated per repetition, {ctx.plan.repeats} repetitions, scene `{BENCH_SCENE}`;"
             " overhead = with / bare - 1; own = time inside the controller's `apply` per step (a separate run),"
-            " own_share = own / bare; realtime = simulated s per wall s"
+            " own_share = own / bare; realtime = simulated s per wall s",
+            "clock: this thread's CPU time (--cpu-time)" if ctx.plan.cpu_time else "clock: wall time",
         ],
     )
 
@@ -406,6 +415,7 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
     """
     labels = {"animal": animal, "controller": controller}
     steps = world.steps(plan.controller_seconds)
+    clock = step_clock(plan)
     controlled: list[float] = []
     own: list[float] = []
     bare: list[float] = []
@@ -414,11 +424,11 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
         step_run(world.controlled_run(controller), WARM_UP_STEPS)
         for _ in range(plan.repeats):
             run = world.controlled_run(controller)
-            controlled.append(timed(lambda run=run: step_run(run, steps)))
+            controlled.append(timed(lambda run=run: step_run(run, steps), clock))
             statuses.append(world.status())
-            own.append(controllers_time(world.controlled_run(controller), steps))
+            own.append(controllers_time(world.controlled_run(controller), steps, clock))
             world.reset()
-            bare.append(timed(lambda: world.step_bare(steps)))
+            bare.append(timed(lambda: world.step_bare(steps), clock))
     except Exception as exc:  # measure anyway: one failing controller must not stop the benchmark
         return Row(labels, status=error_text(exc))
     simulated = steps * world.model.opt.timestep
@@ -426,22 +436,22 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
 
 
 class TimedController:
-    """A controller whose `apply` adds the wall seconds it takes to `seconds`."""
+    """A controller whose `apply` adds the seconds it takes on `clock` to `seconds`."""
 
-    def __init__(self, controller: Any):
-        self.controller, self.seconds = controller, 0.0
+    def __init__(self, controller: Any, clock: Callable[[], float]):
+        self.controller, self.clock, self.seconds = controller, clock, 0.0
 
     def apply(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """The controller's `apply`, timed."""
-        start = time.perf_counter()
+        start = self.clock()
         self.controller.apply(model, data)
-        self.seconds += time.perf_counter() - start
+        self.seconds += self.clock() - start
 
 
-def controllers_time(run: Simulation, steps: int) -> float:
-    """`steps` steps of `run` as `step_run` takes them; the wall seconds spent inside its
+def controllers_time(run: Simulation, steps: int, clock: Callable[[], float]) -> float:
+    """`steps` steps of `run` as `step_run` takes them; the seconds spent inside its
     controllers' `apply` (the controller's own cost, without the physics of the motion it makes)."""
-    timers = [TimedController(controller) for controller in run.controllers]
+    timers = [TimedController(controller, clock) for controller in run.controllers]
     run.controllers = timers
     step_run(run, steps)
     return sum(timer.seconds for timer in timers)
@@ -1114,6 +1124,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         help="time the controllers section on these animals only (e.g. --animals dog)",
     )
     parser.add_argument(
+        "--cpu-time",
+        action="store_true",
+        help="the controllers section counts this thread's CPU time, not wall time (a machine loaded beyond its cores)",
+    )
+    parser.add_argument(
         "--compare",
         nargs="+",
         type=Path,
@@ -1134,8 +1149,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     old = load_report(args.compare[0]) if args.compare else None
     plan = QUICK if args.quick else FULL
-    if args.animals:
-        plan = replace(plan, controller_animals=tuple(args.animals))
+    plan = replace(plan, controller_animals=tuple(args.animals) if args.animals else None, cpu_time=args.cpu_time)
     report = run_benchmarks(plan, args.only or list(SECTIONS))
     from quadpipe.core.atomic import write_text
 
