@@ -31,7 +31,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -135,6 +135,9 @@ class Plan:
         render_frames: frames rendered per measurement.
         batch_animals: animals of the batch benchmark (None: all).
         batch_seconds: simulated seconds of each batch job.
+        controller_animals: the animals of the `controllers` section (None: all; `--animals`).
+        cpu_time: the `controllers` section counts this thread's CPU time instead of wall time
+            (`--cpu-time`: on a machine loaded beyond its cores, wall time is mostly waiting).
     """
 
     name: str
@@ -152,6 +155,8 @@ class Plan:
     render_frames: int
     batch_animals: tuple[str, ...] | None
     batch_seconds: float
+    controller_animals: tuple[str, ...] | None = None
+    cpu_time: bool = False
 
 
 FULL = Plan(
@@ -257,11 +262,16 @@ class Context:
         return self.clip
 
 
-def timed(action: Callable[[], Any]) -> float:
-    """Wall seconds `action()` takes."""
-    start = time.perf_counter()
+def timed(action: Callable[[], Any], clock: Callable[[], float] = time.perf_counter) -> float:
+    """Seconds `action()` takes on `clock` (wall time unless told)."""
+    start = clock()
     action()
-    return time.perf_counter() - start
+    return clock() - start
+
+
+def step_clock(plan: Plan) -> Callable[[], float]:
+    """The clock of the `controllers` section: this thread's CPU time or wall time (`Plan.cpu_time`)."""
+    return time.thread_time if plan.cpu_time else time.perf_counter
 
 
 def error_text(exc: BaseException) -> str:
@@ -366,7 +376,7 @@ def bench_controllers(ctx: Context) -> Section:
     from quadpipe.world import load_scene
 
     rows = []
-    for animal, controllers in controller_pairs(ctx.plan.all_pairs).items():
+    for animal, controllers in controller_pairs(ctx.plan.all_pairs, ctx.plan.controller_animals).items():
         try:
             world = World.build(load_scene(BENCH_SCENE), build_animal(load_animal(animal)))
         except Exception as exc:  # an animal that cannot be built is recorded, the others still run
@@ -378,16 +388,20 @@ def bench_controllers(ctx: Context) -> Section:
         rows,
         [
             f"{ctx.plan.controller_seconds:g} s simulated per repetition, {ctx.plan.repeats} repetitions, scene `{BENCH_SCENE}`;"
-            " overhead = with / bare - 1; realtime = simulated s per wall s"
+            " overhead = with / bare - 1; own = time inside the controller's `apply` per step (in the `with` run),"
+            " own_share = own / bare; realtime = simulated s per wall s",
+            "clock: this thread's CPU time (--cpu-time)" if ctx.plan.cpu_time else "clock: wall time",
         ],
     )
 
 
-def controller_pairs(all_pairs: bool) -> dict[str, list[str]]:
-    """Animal -> the shipped controllers to time on it (all, or the cross through dog and spine_walk)."""
+def controller_pairs(all_pairs: bool, only: Sequence[str] | None = None) -> dict[str, list[str]]:
+    """Animal -> the shipped controllers to time on it (all, or the cross through dog and spine_walk),
+    for the animals of `only` (None: every animal)."""
     from quadpipe.core import configs
 
     animals, controllers = configs.available("animals"), configs.available("controllers")
+    animals = [animal for animal in animals if only is None or animal in only]
     if all_pairs:
         return {animal: controllers for animal in animals}
     return {animal: controllers if animal == CROSS_ANIMAL else [CROSS_CONTROLLER] for animal in animals}
@@ -401,29 +415,59 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
     """
     labels = {"animal": animal, "controller": controller}
     steps = world.steps(plan.controller_seconds)
+    clock = step_clock(plan)
     controlled: list[float] = []
+    own: list[float] = []
     bare: list[float] = []
     statuses: list[str] = []
     try:
         step_run(world.controlled_run(controller), WARM_UP_STEPS)
         for _ in range(plan.repeats):
             run = world.controlled_run(controller)
-            controlled.append(timed(lambda run=run: step_run(run, steps)))
+            timers = timed_controllers(run, clock)
+            controlled.append(timed(lambda run=run: step_run(run, steps), clock))
+            own.append(sum(timer.seconds for timer in timers))
             statuses.append(world.status())
             world.reset()
-            bare.append(timed(lambda: world.step_bare(steps)))
+            bare.append(timed(lambda: world.step_bare(steps), clock))
     except Exception as exc:  # measure anyway: one failing controller must not stop the benchmark
         return Row(labels, status=error_text(exc))
     simulated = steps * world.model.opt.timestep
-    return Row(labels, step_figures(controlled, bare, steps, simulated), worst_status(statuses))
+    return Row(labels, step_figures(controlled, own, bare, steps, simulated), worst_status(statuses))
 
 
-def step_figures(controlled: Sequence[float], bare: Sequence[float], steps: int, simulated: float) -> dict[str, Figure]:
+class TimedController:
+    """A controller whose `apply` adds the seconds it takes on `clock` to `seconds`."""
+
+    def __init__(self, controller: Any, clock: Callable[[], float]):
+        self.controller, self.clock, self.seconds = controller, clock, 0.0
+
+    def apply(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """The controller's `apply`, timed."""
+        start = self.clock()
+        self.controller.apply(model, data)
+        self.seconds += self.clock() - start
+
+
+def timed_controllers(run: Simulation, clock: Callable[[], float]) -> list[TimedController]:
+    """Time every `apply` of `run`'s controllers from now on (the controller's own cost, without
+    the physics of the motion it makes); the timers, whose `seconds` add up what they measured.
+    The two clock reads per step (~0.1 µs) count in the run's `with`."""
+    timers = [TimedController(controller, clock) for controller in run.controllers]
+    run.controllers = list(timers)
+    return timers
+
+
+def step_figures(
+    controlled: Sequence[float], own: Sequence[float], bare: Sequence[float], steps: int, simulated: float
+) -> dict[str, Figure]:
     """Per-step costs, overhead and real-time factors from paired wall times."""
     return {
         "with": figure([1e6 * s / steps for s in controlled], "us/step"),
         "bare": figure([1e6 * s / steps for s in bare], "us/step"),
         "overhead": figure([r - 1.0 for r in paired(controlled, bare)], "x bare"),
+        "own": figure([1e6 * s / steps for s in own], "us/step"),
+        "own_share": figure(paired(own, bare), "x bare"),
         "realtime": figure([simulated / s for s in controlled], "x realtime", "higher"),
         "bare_realtime": figure([simulated / s for s in bare], "x realtime", "higher"),
     }
@@ -1075,6 +1119,17 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         help=f"run only these sections: {', '.join(SECTIONS)}",
     )
     parser.add_argument(
+        "--animals",
+        nargs="+",
+        metavar="ANIMAL",
+        help="time the controllers section on these animals only (e.g. --animals dog)",
+    )
+    parser.add_argument(
+        "--cpu-time",
+        action="store_true",
+        help="the controllers section counts this thread's CPU time, not wall time (a machine loaded beyond its cores)",
+    )
+    parser.add_argument(
         "--compare",
         nargs="+",
         type=Path,
@@ -1094,7 +1149,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print_comparison(load_report(args.compare[0]), load_report(args.compare[1]))
         return 0
     old = load_report(args.compare[0]) if args.compare else None
-    report = run_benchmarks(QUICK if args.quick else FULL, args.only or list(SECTIONS))
+    plan = QUICK if args.quick else FULL
+    plan = replace(plan, controller_animals=tuple(args.animals) if args.animals else None, cpu_time=args.cpu_time)
+    report = run_benchmarks(plan, args.only or list(SECTIONS))
     from quadpipe.core.atomic import write_text
 
     args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -13,6 +13,12 @@ the arithmetic ops, and table indices or jump targets for the others (see each o
 elementwise op's `e` holds the vector flags: which of its result and operands are vectors
 (a scalar operand of a vector op is used for all three components).
 
+Arrays: the kernel reaches every array it reads or writes (the program, the registers, the
+runtime's tables and state, MuJoCo's data and model arrays) through one table of addresses
+(`address_table`), so a call passes one array where it would pass some thirty: numba
+converts each array argument on every call (~0.1-0.2 µs each), and views made from an
+address carry no reference count.
+
 One call of `run` does, in order:
 1. the prologue: foot contacts per animal and leg (from MuJoCo's contact list), the ground
    normal under each foot, and the heading frame of each animal;
@@ -24,10 +30,13 @@ One call of `run` does, in order:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numba
 import numpy as np
+from numba import types
+from numba.extending import intrinsic
 
 from quadpipe.controllers.runtime.mjlib import mj_ray
 
@@ -91,61 +100,93 @@ CODE_WIDTH = 7
 
 
 INTEGER_ARRAYS = (
-    "point_body", "frame_body", "leg_of_geom", "animal_of_geom", "heading_points", "spring_start",
+    "code", "point_body", "frame_body", "leg_of_geom", "animal_of_geom", "heading_points", "spring_start",
     "spring_dof", "spring_qpos", "spring_twist", "slot_body", "body_root", "state", "sensor_ready",
 )  # fmt: skip
-"""The integer arrays of a runtime, packed into one buffer (`pack`), in this order."""
-(POINT_BODY, FRAME_BODY, LEG_OF_GEOM, ANIMAL_OF_GEOM, HEADING_POINTS, SPRING_START, SPRING_DOF,
+"""The int64 arrays of a runtime, rows of the address table (`address_table`) in this order."""
+(CODE, POINT_BODY, FRAME_BODY, LEG_OF_GEOM, ANIMAL_OF_GEOM, HEADING_POINTS, SPRING_START, SPRING_DOF,
  SPRING_QPOS, SPRING_TWIST, SLOT_BODY, BODY_ROOT, STATE, SENSOR_READY) = range(len(INTEGER_ARRAYS))  # fmt: skip
 
 REAL_ARRAYS = (
-    "point_offset", "base_damping", "slot_point", "slot_force", "phase", "time_in_state",
+    "registers", "point_offset", "base_damping", "slot_point", "slot_force", "phase", "time_in_state",
     "damping", "contact", "normals", "heading",
 )  # fmt: skip
-"""The float arrays of a runtime, packed into one buffer (`pack`), in this order."""
-(POINT_OFFSET, BASE_DAMPING, SLOT_POINT, SLOT_FORCE, PHASES, TIME_IN_STATE, DAMPING, CONTACTS,
- NORMALS, HEADING_FRAMES) = range(len(REAL_ARRAYS))  # fmt: skip
+"""The float64 arrays of a runtime, rows of the address table after `INTEGER_ARRAYS`."""
+(REGISTERS, POINT_OFFSET, BASE_DAMPING, SLOT_POINT, SLOT_FORCE, PHASES, TIME_IN_STATE, DAMPING, CONTACTS,
+ NORMALS, HEADING_FRAMES) = range(len(INTEGER_ARRAYS), len(INTEGER_ARRAYS) + len(REAL_ARRAYS))  # fmt: skip
+
+MUJOCO_ARRAYS = (
+    "xpos", "xmat", "xipos", "cvel", "subtree_com", "qpos", "qfrc_applied", "xfrc_applied", "dof_damping",
+)  # fmt: skip
+"""The float64 arrays of MuJoCo's data (and the model's `dof_damping`), rows of the address
+table after `REAL_ARRAYS`; then two rows hold the addresses of the model and the data
+themselves (`MODEL`, `DATA`, for `mj_ray`)."""
+(XPOS, XMAT, XIPOS, CVEL, SUBTREE_COM, QPOS, QFRC, XFRC, DOF_DAMPING, MODEL, DATA) = range(
+    len(INTEGER_ARRAYS) + len(REAL_ARRAYS), len(INTEGER_ARRAYS) + len(REAL_ARRAYS) + len(MUJOCO_ARRAYS) + 2
+)  # fmt: skip
+
+TABLE_WIDTH = 4
+"""Columns of an address table row: the address, then up to three dimensions (missing ones 1)."""
 
 
-def pack(
-    arrays: Mapping[str, np.ndarray], names: Sequence[str], dtype: type
-) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    """Copy named arrays into one buffer, so the kernel takes two arguments instead of many.
+def address_row(array: np.ndarray, dtype: type) -> tuple[int, int, int, int]:
+    """The address table row of a C-contiguous array of `dtype` (see `address_table`).
 
-    Returns:
-        The buffer; its layout, a row `(offset, d0, d1, d2)` per name (missing dimensions
-        are 1); and a view of the buffer per name, shaped as the array given (writing into a
-        view writes into the buffer the kernel reads).
+    Raises:
+        ValueError: the array is not C-contiguous, not of `dtype`, or has more than three dimensions.
     """
-    values: list[np.ndarray] = [np.asarray(arrays[name], dtype=dtype) for name in names]
-    layout = np.zeros((len(names), 4), dtype=np.int64)
-    offset = 0
-    for row, value in enumerate(values):
-        layout[row] = (offset, *(value.shape + (1,) * (3 - value.ndim)))
-        offset += value.size
-    buffer: np.ndarray = np.zeros(offset, dtype=dtype)
-    views = {}
-    for row, (name, value) in enumerate(zip(names, values)):
-        views[name] = buffer[layout[row, 0] : layout[row, 0] + value.size].reshape(value.shape)
-        views[name][...] = value
-    return buffer, layout, views
+    if array.dtype != dtype or not array.flags.c_contiguous or array.ndim > 3:
+        raise ValueError(
+            f"the kernel reads C-contiguous {np.dtype(dtype)} arrays of up to 3 dimensions, not {array.dtype} {array.shape}"
+        )
+    shape = array.shape + (1,) * (3 - array.ndim)
+    return (array.ctypes.data, shape[0], shape[1], shape[2])
+
+
+def address_table(rows: Sequence[tuple[int, int, int, int]]) -> np.ndarray:
+    """The kernel's address table: a row `(address, d0, d1, d2)` per array (`address_row`), in
+    the order `INTEGER_ARRAYS`, `REAL_ARRAYS`, `MUJOCO_ARRAYS`, then the model and the data
+    (`(address, 0, 0, 0)`). The caller keeps every array alive while the kernel runs on the table."""
+    return np.array(rows, dtype=np.int64).reshape(-1, TABLE_WIDTH)
+
+
+def _pointer_typing(typingctx: Any, address: Any, kind: Any) -> tuple[Any, Callable[..., Any]]:
+    """Numba's typing of `_pointer`: (an integer, a number class) -> a pointer to that number."""
+    target = types.CPointer(kind.instance_type)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Sequence[Any]) -> Any:
+        return builder.inttoptr(args[0], context.get_value_type(target))
+
+    return target(address, kind), codegen
+
+
+_pointer: Any = intrinsic(_pointer_typing)
+"""`_pointer(address, numba.float64)`: an integer address as a typed pointer, for `numba.carray`."""
 
 
 @numba.njit(cache=True)
-def _flat(buffer: np.ndarray, layout: np.ndarray, row: int) -> np.ndarray:
-    return buffer[layout[row, 0] : layout[row, 0] + layout[row, 1]]
+def _ints1(table: np.ndarray, row: int) -> np.ndarray:
+    return numba.carray(_pointer(table[row, 0], numba.int64), table[row, 1] * table[row, 2] * table[row, 3])
 
 
 @numba.njit(cache=True)
-def _matrix(buffer: np.ndarray, layout: np.ndarray, row: int) -> np.ndarray:
-    start = layout[row, 0]
-    return buffer[start : start + layout[row, 1] * layout[row, 2]].reshape((layout[row, 1], layout[row, 2]))
+def _ints2(table: np.ndarray, row: int) -> np.ndarray:
+    return numba.carray(_pointer(table[row, 0], numba.int64), (table[row, 1], table[row, 2] * table[row, 3]))
 
 
 @numba.njit(cache=True)
-def _block(buffer: np.ndarray, layout: np.ndarray, row: int) -> np.ndarray:
-    start, d0, d1, d2 = layout[row, 0], layout[row, 1], layout[row, 2], layout[row, 3]
-    return buffer[start : start + d0 * d1 * d2].reshape((d0, d1, d2))
+def _reals1(table: np.ndarray, row: int) -> np.ndarray:
+    return numba.carray(_pointer(table[row, 0], numba.float64), table[row, 1] * table[row, 2] * table[row, 3])
+
+
+@numba.njit(cache=True)
+def _reals2(table: np.ndarray, row: int) -> np.ndarray:
+    return numba.carray(_pointer(table[row, 0], numba.float64), (table[row, 1], table[row, 2] * table[row, 3]))
+
+
+@numba.njit(cache=True)
+def _reals3(table: np.ndarray, row: int) -> np.ndarray:
+    return numba.carray(_pointer(table[row, 0], numba.float64), (table[row, 1], table[row, 2], table[row, 3]))
 
 
 @numba.njit(cache=True)
@@ -250,25 +291,23 @@ def _elementwise(op: int, x: float, y: float, z: float) -> float:
 
 
 @numba.njit(cache=True)
-def _unit_into(out: np.ndarray, x: float, y: float, z: float) -> None:
+def _unit(x: float, y: float, z: float) -> tuple[float, float, float]:
+    """The direction of (x, y, z) (no array: the kernel allocates nothing per step)."""
     length = math.sqrt(x * x + y * y + z * z)
     if length > ZERO_NORM:
-        out[0], out[1], out[2] = x / length, y / length, z / length
-    elif length == length:
-        out[0], out[1], out[2] = 0.0, 0.0, 0.0
-    else:  # a NaN direction stays NaN, for FORCE to report (not a silent zero force)
-        out[0], out[1], out[2] = math.nan, math.nan, math.nan
+        return x / length, y / length, z / length
+    if length == length:
+        return 0.0, 0.0, 0.0
+    return math.nan, math.nan, math.nan  # a NaN direction stays NaN, for FORCE to report (not a silent zero force)
 
 
 @numba.njit(cache=True)
-def _point(xpos: np.ndarray, xmat: np.ndarray, body: int, offset: np.ndarray, out: np.ndarray) -> None:
-    for k in range(3):
-        out[k] = (
-            xpos[body, k]
-            + xmat[body, 3 * k] * offset[0]
-            + xmat[body, 3 * k + 1] * offset[1]
-            + xmat[body, 3 * k + 2] * offset[2]
-        )
+def _point(xpos: np.ndarray, xmat: np.ndarray, body: int, offset: np.ndarray) -> tuple[float, float, float]:
+    """World position of the point at `offset` in `body`'s frame."""
+    x = xpos[body, 0] + xmat[body, 0] * offset[0] + xmat[body, 1] * offset[1] + xmat[body, 2] * offset[2]
+    y = xpos[body, 1] + xmat[body, 3] * offset[0] + xmat[body, 4] * offset[1] + xmat[body, 5] * offset[2]
+    z = xpos[body, 2] + xmat[body, 6] * offset[0] + xmat[body, 7] * offset[1] + xmat[body, 8] * offset[2]
+    return x, y, z
 
 
 @numba.njit(cache=True)
@@ -323,12 +362,10 @@ def _headings(
     heading: np.ndarray,
 ) -> None:
     """Heading frames (columns: forward, left, up) from pelvis.start toward thorax.start."""
-    a = np.empty(3)
-    b = np.empty(3)
     for i in range(heading.shape[0]):
-        _point(xpos, xmat, point_body[pelvis, i], point_offset[pelvis, i], a)
-        _point(xpos, xmat, point_body[thorax, i], point_offset[thorax, i], b)
-        fx, fy = b[0] - a[0], b[1] - a[1]
+        ax, ay, _ = _point(xpos, xmat, point_body[pelvis, i], point_offset[pelvis, i])
+        bx, by, _ = _point(xpos, xmat, point_body[thorax, i], point_offset[thorax, i])
+        fx, fy = bx - ax, by - ay
         length = math.sqrt(fx * fx + fy * fy)
         if length > HEADING_MIN_NORM:
             fx, fy = fx / length, fy / length
@@ -341,53 +378,38 @@ def _headings(
 
 @numba.njit(cache=True, nogil=True)
 def run(
-    code: np.ndarray, reg: np.ndarray, integers: np.ndarray, integer_layout: np.ndarray,
-    reals: np.ndarray, real_layout: np.ndarray, dt: float,
-    xpos: np.ndarray, xmat: np.ndarray, xipos: np.ndarray, cvel: np.ndarray, subtree_com: np.ndarray,
-    qpos: np.ndarray, qfrc: np.ndarray, xfrc: np.ndarray, dof_damping: np.ndarray, model: int, data: int,
-    first: int, last: int, finish: bool, time: float, ncon: int,
+    table: np.ndarray, dt: float, first: int, last: int, finish: bool, time: float, ncon: int,
     contact_geoms: np.ndarray, contact_frames: np.ndarray,
 ) -> int:  # fmt: skip
     """Run instructions `first` to `last` of a controller program (see the module docstring).
 
-    `integers` and `reals` hold the runtime's tables and state (`INTEGER_ARRAYS` and
-    `REAL_ARRAYS`, see `pack`); MuJoCo arrays are the data's and the model's own (forces are
-    added into `xfrc` and `qfrc`, damping written into `dof_damping`); `model` and `data` are
-    their addresses, for MuJoCo's ray casts (`HEIGHT`). The last seven
-    arguments change every call; `contact_geoms` and `contact_frames` have `ncon` rows (or
-    more: the rest is ignored).
+    `table` holds the address and shape of every array the kernel uses (`address_table`): the
+    program, the registers, the runtime's tables and state, and MuJoCo's own arrays (forces
+    are added into `xfrc_applied` and `qfrc_applied`, damping written into the model's
+    `dof_damping`), and the addresses of the model and the data, for MuJoCo's ray casts
+    (`HEIGHT`). The other arguments change every call; `contact_geoms` and `contact_frames`
+    have `ncon` rows (or more: the rest is ignored).
 
     A force or spring value that is NaN or infinite is not applied: `run` returns where it
     was (see `NO_FAULT`), for the runtime to report.
     """
+    code, reg = _ints2(table, CODE), _reals3(table, REGISTERS)
     n = reg.shape[1]
-    point_body, frame_body = (
-        _matrix(integers, integer_layout, POINT_BODY),
-        _matrix(integers, integer_layout, FRAME_BODY),
-    )
-    leg_of_geom, animal_of_geom = (
-        _flat(integers, integer_layout, LEG_OF_GEOM),
-        _flat(integers, integer_layout, ANIMAL_OF_GEOM),
-    )
-    heading_points, body_root = (
-        _flat(integers, integer_layout, HEADING_POINTS),
-        _flat(integers, integer_layout, BODY_ROOT),
-    )
-    spring_start, spring_dof = (
-        _flat(integers, integer_layout, SPRING_START),
-        _matrix(integers, integer_layout, SPRING_DOF),
-    )
-    spring_qpos, spring_twist = (
-        _matrix(integers, integer_layout, SPRING_QPOS),
-        _matrix(integers, integer_layout, SPRING_TWIST),
-    )
-    slot_body, state = _matrix(integers, integer_layout, SLOT_BODY), _matrix(integers, integer_layout, STATE)
-    sensor_ready = _flat(integers, integer_layout, SENSOR_READY)
-    point_offset, base_damping = _block(reals, real_layout, POINT_OFFSET), _flat(reals, real_layout, BASE_DAMPING)
-    slot_point, slot_force = _block(reals, real_layout, SLOT_POINT), _block(reals, real_layout, SLOT_FORCE)
-    phase, time_in_state = _matrix(reals, real_layout, PHASES), _matrix(reals, real_layout, TIME_IN_STATE)
-    damping, contact = _flat(reals, real_layout, DAMPING), _matrix(reals, real_layout, CONTACTS)
-    normals, heading = _block(reals, real_layout, NORMALS), _block(reals, real_layout, HEADING_FRAMES)
+    point_body, frame_body = _ints2(table, POINT_BODY), _ints2(table, FRAME_BODY)
+    leg_of_geom, animal_of_geom = _ints1(table, LEG_OF_GEOM), _ints1(table, ANIMAL_OF_GEOM)
+    heading_points, body_root = _ints1(table, HEADING_POINTS), _ints1(table, BODY_ROOT)
+    spring_start, spring_dof = _ints1(table, SPRING_START), _ints2(table, SPRING_DOF)
+    spring_qpos, spring_twist = _ints2(table, SPRING_QPOS), _ints2(table, SPRING_TWIST)
+    slot_body, state, sensor_ready = _ints2(table, SLOT_BODY), _ints2(table, STATE), _ints1(table, SENSOR_READY)
+    point_offset, base_damping = _reals3(table, POINT_OFFSET), _reals1(table, BASE_DAMPING)
+    slot_point, slot_force = _reals3(table, SLOT_POINT), _reals3(table, SLOT_FORCE)
+    phase, time_in_state = _reals2(table, PHASES), _reals2(table, TIME_IN_STATE)
+    damping, contact = _reals1(table, DAMPING), _reals2(table, CONTACTS)
+    normals, heading = _reals3(table, NORMALS), _reals3(table, HEADING_FRAMES)
+    xpos, xmat, xipos = _reals2(table, XPOS), _reals2(table, XMAT), _reals2(table, XIPOS)
+    cvel, subtree_com, qpos = _reals2(table, CVEL), _reals2(table, SUBTREE_COM), _reals1(table, QPOS)
+    qfrc, xfrc, dof_damping = _reals1(table, QFRC), _reals2(table, XFRC), _reals1(table, DOF_DAMPING)
+    model, data = table[MODEL, 0], table[DATA, 0]
     _contacts(ncon, contact_geoms, contact_frames, leg_of_geom, animal_of_geom, contact, normals)
     _headings(xpos, xmat, point_body, point_offset, heading_points[0], heading_points[1], heading)
     if finish:
@@ -425,7 +447,7 @@ def run(
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
         elif op == NORMALIZE:
             for i in range(n):
-                _unit_into(reg[dst, i], reg[a, i, 0], reg[a, i, 1], reg[a, i, 2])
+                reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = _unit(reg[a, i, 0], reg[a, i, 1], reg[a, i, 2])
         elif op == DOT:
             for i in range(n):
                 value = reg[a, i, 0] * reg[b, i, 0] + reg[a, i, 1] * reg[b, i, 1] + reg[a, i, 2] * reg[b, i, 2]
@@ -437,12 +459,10 @@ def run(
                 z = reg[a, i, 0] * reg[b, i, 1] - reg[a, i, 1] * reg[b, i, 0]
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = x, y, z
         elif op == ANGLE:
-            u = np.empty(3)
-            v = np.empty(3)
             for i in range(n):
-                _unit_into(u, reg[a, i, 0], reg[a, i, 1], reg[a, i, 2])
-                _unit_into(v, reg[b, i, 0], reg[b, i, 1], reg[b, i, 2])
-                value = math.acos(min(max(u[0] * v[0] + u[1] * v[1] + u[2] * v[2], -1.0), 1.0))
+                ux, uy, uz = _unit(reg[a, i, 0], reg[a, i, 1], reg[a, i, 2])
+                vx, vy, vz = _unit(reg[b, i, 0], reg[b, i, 1], reg[b, i, 2])
+                value = math.acos(min(max(ux * vx + uy * vy + uz * vz, -1.0), 1.0))
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
         elif op == HORIZONTAL:
             for i in range(n):
@@ -459,14 +479,15 @@ def run(
                     reg[dst, i, k] = xmat[body, 3 * k] * x + xmat[body, 3 * k + 1] * y + xmat[body, 3 * k + 2] * z
         elif op == POINT:
             for i in range(n):
-                _point(xpos, xmat, point_body[a, i], point_offset[a, i], reg[dst, i])
+                reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = _point(
+                    xpos, xmat, point_body[a, i], point_offset[a, i]
+                )
         elif op == VELOCITY:
-            p = np.empty(3)
             for i in range(n):
                 body = point_body[a, i]
-                _point(xpos, xmat, body, point_offset[a, i], p)
+                px, py, pz = _point(xpos, xmat, body, point_offset[a, i])
                 root = body_root[body]
-                rx, ry, rz = p[0] - subtree_com[root, 0], p[1] - subtree_com[root, 1], p[2] - subtree_com[root, 2]
+                rx, ry, rz = px - subtree_com[root, 0], py - subtree_com[root, 1], pz - subtree_com[root, 2]
                 wx, wy, wz = cvel[body, 0], cvel[body, 1], cvel[body, 2]
                 reg[dst, i, 0] = cvel[body, 3] + (wy * rz - wz * ry)
                 reg[dst, i, 1] = cvel[body, 4] + (wz * rx - wx * rz)

@@ -33,7 +33,16 @@ from quadpipe.anatomy.roles import FOOT_BONES, JOINT_AXES, LEGS, ROLES
 from quadpipe.animals.library import repertoire_parameters
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
-from quadpipe.controllers.runtime.kernel import HEADING_MIN_NORM, INTEGER_ARRAYS, NO_FAULT, REAL_ARRAYS, pack, run
+from quadpipe.controllers.runtime.kernel import (
+    HEADING_MIN_NORM,
+    INTEGER_ARRAYS,
+    MUJOCO_ARRAYS,
+    NO_FAULT,
+    REAL_ARRAYS,
+    address_row,
+    address_table,
+    run,
+)
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
 from quadpipe.controllers.runtime.variation import StrideClock, Variation
 from quadpipe.core.errors import Location, QuadpipeError
@@ -41,13 +50,6 @@ from quadpipe.quantities.units import scale_for_animals
 from quadpipe.world.placement import Placement
 
 UP = np.array([0.0, 0.0, 1.0])
-
-_FixedArguments = tuple[
-    np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float,
-    np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-    int, int,
-]  # fmt: skip
-"""The first eighteen arguments of `kernel.run` (`code` to `data`), the same from step to step."""
 
 
 @dataclass
@@ -102,18 +104,23 @@ class ControllerRuntime:
         for index, row in enumerate(self._bodies):
             self._animal_of_body[row] = index
         self.program = lower(compiled, self.gravity)
-        self._registers = np.zeros((self.program.registers, self.n, 3))
+        registers = np.zeros((self.program.registers, self.n, 3))
         for register, value in self.program.constants.items():
-            self._registers[register] = value
-        arrays = self._bind(self.program) | self._initial_state(self.program)
-        self._integers, self._integer_layout, integer_views = pack(arrays, INTEGER_ARRAYS, np.int64)
-        self._reals, self._real_layout, real_views = pack(arrays, REAL_ARRAYS, np.float64)
-        self._arrays = integer_views | real_views
+            registers[register] = value
+        arrays = {"code": self.program.code, "registers": registers}
+        arrays |= self._bind(self.program) | self._initial_state(self.program)
+        self._arrays = {name: np.ascontiguousarray(arrays[name], np.int64) for name in INTEGER_ARRAYS} | {
+            name: np.ascontiguousarray(arrays[name], np.float64) for name in REAL_ARRAYS
+        }
+        self._registers = self._arrays["registers"]
+        self._own_rows = [address_row(self._arrays[name], np.int64) for name in INTEGER_ARRAYS] + [
+            address_row(self._arrays[name], np.float64) for name in REAL_ARRAYS
+        ]
         self._last: AppliedForces | None = None
         self.fault: str | None = None
         """The first non-finite force or spring value an element computed (None: none so far)."""
-        self._fixed_for: mujoco.MjData | None = None
-        self._fixed: _FixedArguments  # set with `_fixed_for` by `_arguments`
+        self._table_for: mujoco.MjData | None = None
+        self._table: np.ndarray  # set with `_table_for` by `_address_table`
         self._few_contacts = (np.zeros((1, 4), np.int32)[:, ::2], np.zeros((1, 18))[:, ::2])
         self._clock = (
             StrideClock(variation, len(self.program.cycles), self.n) if variation and variation.active else None
@@ -271,7 +278,8 @@ class ControllerRuntime:
     def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:
         """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
         ncon = data.ncon
-        fault = run(*self._arguments(data), 0, last, finish, data.time, ncon, *self._contact_arrays(data, ncon))
+        geoms, frames = self._contact_arrays(data, ncon)
+        fault = run(self._address_table(data), self.dt, 0, last, finish, data.time, ncon, geoms, frames)
         if fault != NO_FAULT and self.fault is None:
             self.fault = self._describe_fault(fault)
 
@@ -299,16 +307,19 @@ class ControllerRuntime:
             geoms[0], frames[0] = data.contact.geom[0], data.contact.frame[0]
         return geoms, frames
 
-    def _arguments(self, data: mujoco.MjData) -> _FixedArguments:
-        """The kernel's arguments that stay the same from step to step (views of `data`'s arrays)."""
-        if self._fixed_for is not data:
-            self._fixed = (
-                self.program.code, self._registers, self._integers, self._integer_layout, self._reals, self._real_layout, self.dt,
-                data.xpos, data.xmat, data.xipos, data.cvel, data.subtree_com, data.qpos,
-                data.qfrc_applied, data.xfrc_applied, self.model.dof_damping, self.model._address, data._address,
-            )  # fmt: skip
-            self._fixed_for = data
-        return self._fixed
+    def _address_table(self, data: mujoco.MjData) -> np.ndarray:
+        """The kernel's address table (`kernel.address_table`): this runtime's arrays, then
+        `data`'s and the model's (their addresses stay the same for the data's lifetime, and
+        the runtime keeps the data it was last run on)."""
+        if self._table_for is not data:
+            mujoco_arrays = [getattr(data, name) for name in MUJOCO_ARRAYS[:-1]] + [self.model.dof_damping]
+            self._table = address_table(
+                self._own_rows
+                + [address_row(array, np.float64) for array in mujoco_arrays]
+                + [(self.model._address, 0, 0, 0), (data._address, 0, 0, 0)]
+            )
+            self._table_for = data
+        return self._table
 
     @property
     def last(self) -> AppliedForces:
