@@ -31,6 +31,27 @@ def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     )
 
 
+SHARED_SCOPES = {"tests/test_feet.py": "tests/test_gaits.py"}
+"""Test modules that measure the simulations another module caches (functools.cache is per
+process), mapped to that module: under `--dist loadscope` (scripts/test.sh) they run on its
+worker, so each simulation runs once in the whole suite."""
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """Under `--dist loadscope`, group the modules of SHARED_SCOPES with the module whose
+    simulations they reuse (otherwise xdist's own scheduling)."""
+    if config.getoption("dist") != "loadscope":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class SharedScopeScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            scope = super()._split_scope(nodeid)
+            return SHARED_SCOPES.get(scope.split("::", 1)[0], scope)
+
+    return SharedScopeScheduling(config, log)
+
+
 @pytest.fixture
 def cli():
     """The `run_cli` helper as a fixture."""
