@@ -3,10 +3,12 @@ controller playing shots: speeds, arrivals, stops and starts, a loop, the stairs
 
 from __future__ import annotations
 
+import base64
 import dataclasses
 import functools
 import json
 import math
+import struct
 from collections.abc import Callable
 from pathlib import Path
 
@@ -281,9 +283,16 @@ def played_timelines(direction: Path) -> dict:
     return Simulation.build("dog", None, direction=direction).setup.timelines
 
 
-def write_obj(path: Path) -> Path:
-    lines = [f"v {x} {y} {z}" for x, y, z in CURVE] + ["l " + " ".join(str(k + 1) for k in range(len(CURVE)))]
-    path.write_text("\n".join(lines) + "\n")
+def file_axes(x: float, y: float, z: float, up: str) -> tuple[float, float, float]:
+    """A point of quadpipe's frame in a file's axes: y up as the sets read it (x left, y up,
+    z forward: `quadpipe.clip.kinematics.Y_UP_AXES`), or z up (quadpipe's own)."""
+    return (y, z, x) if up == "y" else (x, y, z)
+
+
+def write_obj(path: Path, up: str = "y") -> Path:
+    """The curve as an OBJ polyline, y up (Blender's OBJ export, the default) or z up."""
+    lines = [f"v {a} {b} {c}" for a, b, c in (file_axes(*p, up) for p in CURVE)]
+    path.write_text("\n".join([*lines, "l " + " ".join(str(k + 1) for k in range(len(CURVE)))]) + "\n")
     return path
 
 
@@ -295,20 +304,108 @@ def write_usd(path: Path) -> Path:
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     UsdGeom.SetStageMetersPerUnit(stage, 0.01)
     curves = UsdGeom.BasisCurves.Define(stage, "/set/path")
-    curves.CreatePointsAttr([(100 * x, 100 * z, -100 * y) for x, y, z in CURVE])
+    curves.CreatePointsAttr([tuple(100 * v for v in file_axes(*p, "y")) for p in CURVE])
     curves.CreateCurveVertexCountsAttr([len(CURVE)])
     stage.Save()
     return path
 
 
-@pytest.mark.parametrize("suffix", [".obj", ".usda"])
-def test_a_path_may_be_a_curve_drawn_in_the_set(tmp_path: Path, suffix: str) -> None:
-    if suffix != ".obj":
+GLTF_NODE_SHIFT = (0.5, 0.0, 1.0)
+"""The glTF curve's node translation, in the file's axes: the points are stored minus it."""
+
+
+def write_gltf(path: Path, mode: int = 3) -> Path:
+    """The curve as a glTF line (mode 3: LINE_STRIP; 1: LINES, each segment its own pair)
+    under a moved node, as a .gltf (data URI) or a .glb (binary chunk) by the suffix."""
+    points = np.array([file_axes(*p, "y") for p in CURVE]) - GLTF_NODE_SHIFT
+    if mode == 1:
+        points = np.repeat(points, 2, axis=0)[1:-1]
+    data = points.astype("<f4").tobytes()
+    glb = path.suffix == ".glb"
+    document = {
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"name": "set", "children": [1]}, {"name": "path", "mesh": 0, "translation": list(GLTF_NODE_SHIFT)}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "mode": mode}]}],
+        "buffers": [
+            {"byteLength": len(data)}
+            if glb
+            else {
+                "byteLength": len(data),
+                "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode(),
+            }
+        ],
+        "bufferViews": [{"buffer": 0, "byteLength": len(data)}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": len(points), "type": "VEC3"}],
+    }
+    text = json.dumps(document).encode()
+    if not glb:
+        path.write_bytes(text)
+        return path
+    text += b" " * (-len(text) % 4)
+    chunks = struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(data), 0x004E4942) + data
+    path.write_bytes(struct.pack("<III", 0x46546C67, 2, 12 + len(chunks)) + chunks)
+    return path
+
+
+CURVE_FILES: dict[str, tuple[str, Callable[[Path], Path], dict]] = {
+    "obj": ("path.obj", write_obj, {}),
+    "obj-z-up": ("path.obj", functools.partial(write_obj, up="z"), {"up": "z"}),
+    "gltf-line-strip": ("path.gltf", write_gltf, {}),
+    "glb-lines": ("path.glb", functools.partial(write_gltf, mode=1), {}),
+    "usda-maya": ("path.usda", write_usd, {}),
+}
+"""Curve files drawn in a set: the file name, its writer, the path's extra keys."""
+
+
+@pytest.mark.parametrize("kind", sorted(CURVE_FILES))
+def test_a_path_may_be_a_curve_drawn_in_the_set(tmp_path: Path, kind: str) -> None:
+    name, write, keys = CURVE_FILES[kind]
+    if name.endswith(".usda"):
         pytest.importorskip("pxr")
-    curve = (write_obj if suffix == ".obj" else write_usd)(tmp_path / f"path{suffix}")
-    from_file = curve_timeline(tmp_path, {"file": curve.name, "smooth": True})
+    curve = write(tmp_path / name)
+    from_file = curve_timeline(tmp_path, {"file": curve.name, "smooth": True, **keys})
     from_points = curve_timeline(tmp_path, {"points": [[f"{x} m", f"{y} m", 0] for x, y, _ in CURVE], "smooth": True})
     assert from_file == pytest.approx(from_points)
+
+
+def test_a_curve_file_reads_in_the_axes_its_set_would(tmp_path: Path) -> None:
+    """A path drawn in a set lines up with the set: a y-up curve read as z up is another path."""
+    curve = write_obj(tmp_path / "path.obj")
+    as_set = curve_timeline(tmp_path, {"file": curve.name})
+    turned = curve_timeline(tmp_path, {"file": curve.name, "up": "z"})
+    assert np.abs(as_set[-1] - turned[-1]).max() > 1.0
+
+
+@pytest.mark.parametrize(
+    ("document", "words"),
+    [
+        (
+            {
+                "asset": {"version": "2.0"},
+                "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+                "nodes": [{"mesh": 0}],
+            },
+            "has no line",
+        ),
+        (
+            {
+                "asset": {"version": "2.0"},
+                "meshes": [{"primitives": [{"attributes": {"POSITION": 3}, "mode": 3}]}],
+                "nodes": [{"mesh": 0}],
+            },
+            "cannot be read",
+        ),
+    ],
+)
+def test_a_bad_gltf_curve_is_located(tmp_path: Path, document: dict, words: str) -> None:
+    (tmp_path / "path.gltf").write_text(json.dumps(document))
+    direction = write_direction(tmp_path, "dog", {"path": {"file": "path.gltf"}, "beats": ["stop"]})
+    with pytest.raises(QuadpipeError) as caught:
+        played_timelines(direction)
+    assert f"{direction}:" in str(caught.value) and "error direction-bad-curve" in str(caught.value)
+    assert words in str(caught.value)
 
 
 @pytest.mark.parametrize(

@@ -149,7 +149,7 @@ def _play(
     else:
         assert animal.path.file is not None, "checked by `DirectionPath._points_or_file`"
         points, issue = _curve_points(
-            Path(source.doc.file).parent, animal.path.file, source.locate(path + ("path", "file"))
+            Path(source.doc.file).parent, animal.path.file, animal.path.up, source.locate(path + ("path", "file"))
         )
         if issue is not None:
             return Timeline(np.zeros((0, 2))), [issue]
@@ -157,13 +157,13 @@ def _play(
     return plan_direction(points[:, :2], animal.path.smooth, beats, natural_time, source.locate)
 
 
-def _curve_points(folder: Path, name: str, where: Location) -> tuple[np.ndarray, Issue | None]:
+def _curve_points(folder: Path, name: str, up: str | None, where: Location) -> tuple[np.ndarray, Issue | None]:
     """A path's points read from a curve file (`quadpipe.world.curves`), or the issue of why not."""
     file = folder / name
     if not file.is_file():
         return np.zeros((0, 3)), missing_file(file, "curve", name=name, where=where, suffixes=CURVE_SUFFIXES)
     try:
-        points = read_curve(file)
+        points = read_curve(file, up)
     except CurveError as exc:
         return np.zeros((0, 3)), Issue("direction-bad-curve", f"{name}: {exc}", where)
     problem = None

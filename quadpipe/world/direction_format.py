@@ -48,7 +48,14 @@ class DirectionPath(_Model):
         str | None,
         Field(
             None,
-            description="Instead of `points`: a curve drawn in the set, relative to this file: an OBJ polyline (its vertices in the order its first `l` line joins them, metres, z up) or a USD file's first `BasisCurves` (its first curve's points, in world metres). Its points are the path's points.",
+            description="Instead of `points`: a curve drawn in the set, relative to this file: an OBJ polyline (its vertices in the order its first `l` line joins them, metres), a glTF/GLB file's first line (a LINE_STRIP or LINES primitive, with its node's world transform) or a USD file's first `BasisCurves` (its first curve's points, in world metres). Its axes are read as a set file's of the same format (see `up`), so a path and a set drawn in one scene line up. Its points are the path's points.",
+        ),
+    ]
+    up: Annotated[
+        Literal["y", "z"] | None,
+        Field(
+            None,
+            description="The curve file's up axis, as a set's `up:`. `y`: the file's x is quadpipe's left, y up, z forward (as the .glb and .bvh exports); `z`: the file's axes are quadpipe's. Default: y for glTF and OBJ (Blender's OBJ export), a USD stage's `upAxis`.",
         ),
     ]
     smooth: Annotated[
