@@ -9,6 +9,7 @@ numbers); anything else is refused before evaluation, so no Python object is eve
 from __future__ import annotations
 
 import ast
+import functools
 import io
 import tokenize
 from typing import Any
@@ -125,8 +126,15 @@ _ALLOWED_NODES = (
 )  # fmt: skip
 
 
+PARSED_TREES_KEPT = 8192
+"""Expression trees `parse` keeps, by text: a controller's expressions repeat across its legs,
+its parents and every load of it (a `walk` simulation parsed 2,225 texts, 0.9 s)."""
+
+
+@functools.lru_cache(maxsize=PARSED_TREES_KEPT)
 def parse(text: str) -> ast.expr:
-    """Parse expression text into a whitelisted Python AST.
+    """Parse expression text into a whitelisted Python AST (cached by text: callers read the
+    tree and never change it).
 
     Raises:
         ExprError: syntax errors (`expression-syntax`) and refused syntax (`forbidden-syntax`).
