@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.test_gaits import ANIMALS, POSTURE_GAITS, measure, measured_gait
+from tests.test_gaits import measure, measured_gait, posture_cases
 
 MAX_SLIP_HP = 0.03
 """A planted foot strays at most this far from where it settled over a stance (#13)."""
@@ -92,14 +92,7 @@ SHORTFALLS: dict[str, dict[tuple[str, str], str]] = {
 
 def cases(figure: str) -> list:
     """Every animal at the walk and the trot, the known shortfalls of `figure` as strict xfails."""
-    known = SHORTFALLS[figure]
-    return [
-        pytest.param(animal, gait, marks=pytest.mark.xfail(strict=True, reason=known[animal, gait]))
-        if (animal, gait) in known
-        else (animal, gait)
-        for gait in POSTURE_GAITS
-        for animal in ANIMALS
-    ]
+    return posture_cases(SHORTFALLS[figure])
 
 
 @pytest.mark.slow

@@ -624,11 +624,12 @@ STANCE_SHAPE_SHORTFALLS = {
 hold the walk, and stiffer ones (5) broke these animals' trot footfalls instead."""
 
 
-def stance_shape_cases() -> list:
-    """Every animal at every posture gait, the known shortfalls as strict expected failures."""
+def posture_cases(shortfalls: dict[tuple[str, str], str]) -> list:
+    """Every animal at every posture gait, the known `shortfalls` (measured, with their
+    figure) as strict expected failures: a fixed one fails until its entry goes."""
     return [
-        pytest.param(animal, gait, marks=pytest.mark.xfail(strict=True, reason=STANCE_SHAPE_SHORTFALLS[animal, gait]))
-        if (animal, gait) in STANCE_SHAPE_SHORTFALLS
+        pytest.param(animal, gait, marks=pytest.mark.xfail(strict=True, reason=shortfalls[animal, gait]))
+        if (animal, gait) in shortfalls
         else (animal, gait)
         for gait in POSTURE_GAITS
         for animal in ANIMALS
@@ -636,7 +637,7 @@ def stance_shape_cases() -> list:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("animal", "gait"), stance_shape_cases())
+@pytest.mark.parametrize(("animal", "gait"), posture_cases(STANCE_SHAPE_SHORTFALLS))
 def test_stance_legs_keep_their_standing_shape(animal, gait):
     posture = measured_gait(animal, gait).posture
     closing = {
@@ -673,19 +674,8 @@ TAIL_TRAILERS = ("rat",)
 """Species whose tail may trail on the ground (the issue: the rat's)."""
 
 
-def head_carriage_cases() -> list:
-    """Every animal at every posture gait, the known shortfalls as strict expected failures."""
-    return [
-        pytest.param(animal, gait, marks=pytest.mark.xfail(strict=True, reason=HEAD_CARRIAGE_SHORTFALLS[animal, gait]))
-        if (animal, gait) in HEAD_CARRIAGE_SHORTFALLS
-        else (animal, gait)
-        for gait in POSTURE_GAITS
-        for animal in ANIMALS
-    ]
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize(("animal", "gait"), head_carriage_cases())
+@pytest.mark.parametrize(("animal", "gait"), posture_cases(HEAD_CARRIAGE_SHORTFALLS))
 def test_the_head_is_carried_at_its_standing_height(animal, gait):
     carriage = measured_gait(animal, gait).posture.head_tail
     assert abs(carriage.head_dz_hp) <= MAX_HEAD_DROP_HP, carriage
