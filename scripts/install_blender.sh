@@ -12,16 +12,8 @@ BPY_VERSION="5.0.1"
 # the software OpenGL/EGL stack; no display is opened in background mode).
 DEBIAN_PACKAGES=(libxi6 libxxf86vm1 libxfixes3 libxrender1 libxkbcommon0 libsm6 libgl1 libegl1)
 
-missing=()
-for package in "${DEBIAN_PACKAGES[@]}"; do
-  dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "installing Debian packages for bpy: ${missing[*]}"
-  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-fi
+source scripts/debian.sh
+install_debian_packages bpy "${DEBIAN_PACKAGES[@]}"
 
 PYTHON="${BLENDER_PYTHON:-python3.11}"
 if ! command -v "$PYTHON" >/dev/null; then
