@@ -26,6 +26,7 @@ import yaml
 
 from quadpipe.anatomy.roles import CHILDREN, MAIN_CHILD, PARENT, ROLES
 from quadpipe.importers import load_skeleton
+from quadpipe.importers.bvh_motion import axis_rotation
 from quadpipe.importers.quadpipe_xml import read_skeleton as read_xml
 
 REPO = Path(__file__).resolve().parent.parent
@@ -137,16 +138,6 @@ def num(value: float) -> str:
 # -- BVH -------------------------------------------------------------------------------------
 
 
-def rotation(axis: str, degrees: float) -> np.ndarray:
-    """Right-handed rotation about one axis, for column vectors."""
-    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
-    i, j = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}[axis]
-    matrix = np.eye(3)
-    matrix[i, i] = matrix[j, j] = c
-    matrix[i, j], matrix[j, i] = -s, s
-    return matrix
-
-
 @dataclass
 class BvhStyle:
     """How a BVH rig is written: channel order, unit, and joints posed away from standing.
@@ -171,7 +162,7 @@ def write_bvh(rig: Rig, path: Path, style: BvhStyle) -> None:
         if joint.parent is not None:
             turn[joint.name] = turn[joint.parent]
         if joint.name in style.bent:
-            turn[joint.name] = rotation("x", -style.bent[joint.name]) @ turn[joint.name]
+            turn[joint.name] = axis_rotation("x", -style.bent[joint.name]) @ turn[joint.name]
 
     def emit(joint: RigJoint, depth: int) -> None:
         pad = "\t" * depth

@@ -22,8 +22,7 @@ from quadpipe.core.yamlio import YamlDocument, load_yaml
 from quadpipe.quantities import units
 from quadpipe.world.curves import CURVE_SUFFIXES, CurveError, read_curve
 from quadpipe.world.direction_format import MAX_PATH_POINTS, AnimalDirection, DirectionFile, Hold, Move, Turn
-from quadpipe.world.format import SCHEMA_VERSION
-from quadpipe.world.loading import SceneSpec, file_order, quantity_issues, validate_part
+from quadpipe.world.loading import SceneSpec, file_order, quantity_issues, schema_issues, validate_part
 from quadpipe.world.timeline import BeatValues, Timeline, follower_timeline, plan_direction, tight_bends
 from quadpipe.world.values import Values
 
@@ -52,15 +51,8 @@ def load_direction(path: str | Path) -> DirectionSpec:
             "invalid-value", "a direction file must be a mapping of keys (schema, direction)", where=doc.locate(())
         )
     issues = validate_part(DirectionFile, doc.data, (), doc)
-    if not issues and doc.data.get("schema") != SCHEMA_VERSION:
-        issues.append(
-            Issue(
-                "unsupported-schema",
-                f"schema version {doc.data.get('schema')!r} is not supported",
-                doc.locate(("schema",)),
-                f"this quadpipe reads `schema: {SCHEMA_VERSION}`",
-            )
-        )
+    if not issues:
+        issues += schema_issues(doc)
     if not issues:
         issues = quantity_issues(DirectionFile.model_validate(doc.data), doc)
     if issues:

@@ -153,16 +153,23 @@ def _structure_issues(doc: YamlDocument) -> list[Issue]:
                 )
             else:
                 issues += validate_part(models[tag], item, path, doc)
-    if not issues and doc.data.get("schema") != SCHEMA_VERSION:
-        issues.append(
-            Issue(
-                "unsupported-schema",
-                f"schema version {doc.data.get('schema')!r} is not supported",
-                doc.locate(("schema",)),
-                f"this quadpipe reads `schema: {SCHEMA_VERSION}`",
-            )
-        )
+    if not issues:
+        issues += schema_issues(doc)
     return issues
+
+
+def schema_issues(doc: YamlDocument) -> list[Issue]:
+    """`unsupported-schema` when a scene or direction file's `schema:` is not this quadpipe's."""
+    if doc.data.get("schema") == SCHEMA_VERSION:
+        return []
+    return [
+        Issue(
+            "unsupported-schema",
+            f"schema version {doc.data.get('schema')!r} is not supported",
+            doc.locate(("schema",)),
+            f"this quadpipe reads `schema: {SCHEMA_VERSION}`",
+        )
+    ]
 
 
 def validate_part(model: type[BaseModel], data: Any, prefix: tuple[Any, ...], doc: YamlDocument) -> list[Issue]:
