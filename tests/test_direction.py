@@ -733,3 +733,15 @@ def test_the_issues_shot_turns_in_place(the_shot: Callable[[str], Clip], animal:
     assert turn.turned_deg is not None and turn.asked_turn_deg is not None and turn.drift_hp is not None
     assert abs(turn.turned_deg - turn.asked_turn_deg) <= IN_PLACE_DEG, format_direction(report)
     assert turn.drift_hp <= IN_PLACE_HP, format_direction(report)
+
+
+def test_a_direction_file_of_another_schema_version_is_located(tmp_path: Path) -> None:
+    direction = tmp_path / "dog.direction.yaml"
+    direction.write_text(
+        yaml.safe_dump(
+            {"schema": 99, "direction": {"dog": {"path": {"points": [[0, 0, 0], ["1 m", 0, 0]]}, "beats": ["stop"]}}}
+        )
+    )
+    with pytest.raises(QuadpipeError) as caught:
+        load_direction(direction)
+    assert f"{direction}:" in str(caught.value) and "error unsupported-schema" in str(caught.value)
