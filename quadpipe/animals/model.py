@@ -179,7 +179,7 @@ def _add_defaults(spec: mujoco.MjSpec, animal: Animal, tau: float) -> dict[str, 
     bone.geom.priority = BONE_PRIORITY
     bone.geom.group = ANIMAL_GEOM_GROUP
     bone.geom.rgba = list(BONE_RGBA)
-    bone.geom.solref = sizing.contact_reference(hp)
+    bone.geom.solref = [tau, 1.0]
     bone.geom.solimp = sizing.constraint_impedance(hp)
     bone.geom.friction = list(FRICTION)
     bone.joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE

@@ -10,10 +10,6 @@ One rule per quantity, each a small function of the pelvis height HP (metres):
   animal's natural time `sqrt(HP / g)`: `tau = 0.079 * sqrt(HP / g)`. That is MuJoCo's default
   0.02 s for the thesis's dog, 0.004 s for the rat, 0.044 s for the elephant, and the resting
   sink becomes the same fraction of HP for every animal (dynamic similarity).
-- **Landing**: a contact with the same spring but MuJoCo's strongest stable damper (time constant
-  2 steps, damping ratio `tau / (2 * timestep)`, 1.2 for the dog, 2.6 for the elephant): a foot
-  that lands at one natural velocity covers 3 % HP in one step, and a critically damped contact
-  at `tau` let it go on into the floor for a few steps more (docs/gaits.md, "Clean feet").
 - **Impedance**: `solimp` (0.95, 0.99, width) instead of MuJoCo's (0.9, 0.95, 1 mm): stiffer
   constraints, so a standing dog rests 0.6 mm into the floor (6 % of its bone radius) rather
   than 1.4 mm; the width over which impedance ramps up is 1 mm for the dog, scaled with HP.
@@ -83,17 +79,6 @@ def natural_time(pelvis_height: float) -> float:
 def constraint_time_constant(pelvis_height: float) -> float:
     """MuJoCo `solref` time constant for contacts and joint limits, in seconds."""
     return SOFTNESS_PER_NATURAL_TIME * natural_time(pelvis_height)
-
-
-def contact_reference(pelvis_height: float) -> list[float]:
-    """MuJoCo `solref` (time constant, damping ratio) of the bones' contacts with the world.
-
-    The spring of `constraint_time_constant` (MuJoCo's stiffness 1 / (timeconst * dampratio)^2
-    kept), with the strongest damper MuJoCo keeps stable, 2 / timeconst at the shortest time
-    constant, 2 time steps: a landing foot's speed into the floor is taken out within a step.
-    """
-    shortest = TAU_PER_STEP * timestep(pelvis_height)
-    return [shortest, constraint_time_constant(pelvis_height) / shortest]
 
 
 def substeps(pelvis_height: float) -> int:
