@@ -686,3 +686,41 @@ def test_the_head_is_carried_at_its_standing_height(animal, gait):
 def test_no_tail_touches_the_ground(animal, gait):
     carriage = measured_gait(animal, gait).posture.head_tail
     assert carriage.tail_ground_fraction in (None, 0.0), carriage
+
+
+# --------------------------------------------------------------------------- each species' swing fold (#13)
+
+ELEPHANT_SWING_FOLD_DEG = (15.0, 50.0)
+"""Largest elbow and knee flexion in swing beyond standing, the elephant at the walk: its
+elbow and knee swing far less bent than a dog's or a horse's (which fold 95-110 deg here)
+yet not straight (Ren et al. 2008, J. Exp. Biol. 211:2735: "joint flexion during the swing
+phase is considerable", the proximal joints using the least of their range; Hutchinson et
+al. 2006, J. Exp. Biol. 209:3812). docs/gaits.md, "Each species' swing fold"."""
+
+
+def test_the_species_walk_fold_reaches_the_gaits_and_a_set_value_wins():
+    """The elephant's small fold at a walk (configs/animals/elephant.yaml: `walk_fold`) is
+    offered to every gait controller, as its gait repertoire is; `--set` wins."""
+    from tests.test_gait_repertoire import compiled_value
+
+    assert compiled_value("elephant", "walk", "walk_fold") == pytest.approx(load_animal("elephant").walk_fold)
+    assert load_animal("elephant").walk_fold < load_animal("dog").walk_fold
+    assert compiled_value("elephant", "walk", "walk_fold", {"walk_fold": "1"}) == 1.0
+
+
+@pytest.mark.slow
+def test_the_elephant_swings_its_legs_little_bent_and_still_clears_the_ground():
+    """On the walk the other tests measure (its stride on Alexander's law: test_strides_follow_alexanders_law)."""
+    from tests.test_feet import MIN_SWING_CLEARANCE_HP
+
+    posture = measured_gait("elephant", "walk").posture
+    low, high = ELEPHANT_SWING_FOLD_DEG
+    for joint in ("elbow", "knee"):
+        fold = max(
+            posture.legs[leg].joints[joint].swing_max_deg or 0.0
+            for leg in roles.LEGS
+            if joint in posture.legs[leg].joints
+        )
+        assert low <= fold <= high, f"{joint} folds {fold:.1f} deg in swing"
+    clearance = posture.lowest("swing_clearance_hp")
+    assert clearance is not None and clearance >= MIN_SWING_CLEARANCE_HP, clearance
