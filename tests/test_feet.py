@@ -49,7 +49,6 @@ SHORTFALLS: dict[str, dict[tuple[str, str], str]] = {
         ("cat", "walk"): "a toe travels 4.5 % HP along the ground before lift-off",
         ("cow", "walk"): "a toe travels 7.2 % HP along the ground before lift-off",
         ("dog", "walk"): "a toe travels 7.4 % HP along the ground before lift-off",
-        ("elephant", "walk"): "a toe travels 5.3 % HP along the ground before lift-off",
         ("goat", "walk"): "a toe travels 7.0 % HP along the ground before lift-off",
         ("horse", "walk"): "a toe travels 6.7 % HP along the ground before lift-off",
         ("pig", "walk"): "a toe travels 6.7 % HP along the ground before lift-off",

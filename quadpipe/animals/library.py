@@ -12,8 +12,9 @@ carries the thesis's pelvis height and a real body mass:
       walk: {froude: [0, 0.6]}
       trot: {froude: [0.35, 3]}
       gallop: {froude: [2, 5], sequence: rotary}
+    walk_fold: 1                # share of the runners' swing fold at a walk (the elephant's small), cited
 
-The repertoire reaches the controllers as parameters they may declare (see
+The repertoire and the swing fold reach the controllers as parameters they may declare (see
 `repertoire_parameters`), and a gait controller the species does not use runs with a warning
 (`gait_warning`).
 """
@@ -46,6 +47,10 @@ MASS_AT_ONE_METRE_KG = 226.0
 (least squares in log mass) the nine built-in animals' cited masses and thesis pelvis heights
 (the rat left out: the thesis's rat skeleton is not to scale). It predicts them within a factor
 1.5 (rms); the dog, tall for its mass, comes out at 68 kg rather than 30."""
+
+DEFAULT_WALK_FOLD = 1.0
+"""The walk's swing fold, as a share of the runners' (`locomotion`'s `fold_angle`), of an animal
+whose config gives none or made from bare files: the dog's, all of it."""
 
 HP_MISMATCH_WARNING = 0.05
 """Warn when the skeleton's pelvis height differs from the config's by more than 5 %."""
@@ -101,6 +106,14 @@ class AnimalConfig(BaseModel):
         default_factory=default_gaits,
         description="The species' gaits and the Froude numbers it uses them at (default: a walk).",
     )
+    walk_fold: float = Field(
+        DEFAULT_WALK_FOLD,
+        ge=0.0,
+        le=1.0,
+        description="How far the gait controllers fold the elbow and carpus (knee and hock) in mid-swing at a "
+        "walk, as a share of how far at running speeds (`fold_angle`, 90 deg): all of it for a dog or a horse, "
+        "a third for an elephant, which swings its legs little bent.",
+    )
 
 
 @dataclass(frozen=True)
@@ -117,6 +130,8 @@ class Animal:
         warnings: non-fatal issues (unplaced joints, HP mismatch).
         gaits: the species' repertoire, slowest gait first (a walk for an animal made from bare files).
         gaits_at: where the repertoire was written (its config's `gaits:`), for messages.
+        walk_fold: how far the legs fold in mid-swing at a walk, as a share of the runners' fold.
+        walk_fold_at: where the walk's fold was written (its config's `walk_fold:`).
     """
 
     name: str
@@ -128,6 +143,8 @@ class Animal:
     warnings: tuple[Issue, ...] = ()
     gaits: Mapping[GaitName, GaitUse] = field(default_factory=default_gaits)
     gaits_at: Location | None = None
+    walk_fold: float = DEFAULT_WALK_FOLD
+    walk_fold_at: Location | None = None
 
 
 def load_animal(name_or_path: str | Path | AnimalSource) -> Animal:
@@ -171,7 +188,17 @@ def load_animal(name_or_path: str | Path | AnimalSource) -> Animal:
         )
     gaits = {name: config.gaits[name] for name in get_args(GaitName) if name in config.gaits}
     return Animal(
-        config.name, skeleton, limits, hp, config.mass_kg, str(path), tuple(warnings), gaits, doc.locate(("gaits",))
+        config.name,
+        skeleton,
+        limits,
+        hp,
+        config.mass_kg,
+        str(path),
+        tuple(warnings),
+        gaits,
+        doc.locate(("gaits",)),
+        config.walk_fold,
+        doc.locate(("walk_fold",)),
     )
 
 
@@ -326,13 +353,18 @@ def _refuse_skeleton_options(source: str | Path, options: dict[str, object]) -> 
         )
 
 
+WALK_FOLD_PARAMETER = "walk_fold"
+"""The controller parameter the species' walking swing fold is offered as (configs/controllers/locomotion.yaml)."""
+
+
 def repertoire_parameters(animal: Animal) -> dict[str, str]:
     """The species' repertoire as controller parameter values (YAML text), offered to a
-    controller that declares them (`auto_gait`, `gallop`), as a scene offers its goals.
+    controller that declares them (`auto_gait`, `gallop`, every gait), as a scene offers its goals.
 
     For every gait of `GAIT_NAMES`: `uses_<gait>` (1 or 0) and, for a gait it uses,
-    `<gait>_froude_min` and `<gait>_froude_max`; `top_froude`, the top of the fastest; and
-    `gallop_rotary`, 1 for a rotary gallop (0 for a transverse one or none).
+    `<gait>_froude_min` and `<gait>_froude_max`; `top_froude`, the top of the fastest;
+    `gallop_rotary`, 1 for a rotary gallop (0 for a transverse one or none); and `walk_fold`,
+    how far its legs fold in mid-swing at a walk (a share of the runners' fold).
     """
     values = {f"uses_{name}": "1" if name in animal.gaits else "0" for name in GAIT_NAMES}
     for name, use in animal.gaits.items():
@@ -340,7 +372,13 @@ def repertoire_parameters(animal: Animal) -> dict[str, str]:
     values["top_froude"] = f"{max(use.froude[1] for use in animal.gaits.values()):g}"
     gallop = animal.gaits.get("gallop")
     values["gallop_rotary"] = "1" if gallop is not None and gallop.sequence == "rotary" else "0"
+    values[WALK_FOLD_PARAMETER] = f"{animal.walk_fold:g}"
     return values
+
+
+def repertoire_place(animal: Animal, name: str) -> Location | None:
+    """Where the animal's config wrote the value of repertoire parameter `name`, for messages."""
+    return animal.walk_fold_at if name == WALK_FOLD_PARAMETER else animal.gaits_at
 
 
 def gait_warning(animal: Animal, controller: str) -> Issue | None:

@@ -30,7 +30,7 @@ import mujoco
 import numpy as np
 
 from quadpipe.anatomy.roles import FOOT_BONES, JOINT_AXES, LEGS, ROLES
-from quadpipe.animals.library import repertoire_parameters
+from quadpipe.animals.library import repertoire_parameters, repertoire_place
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.runtime.kernel import (
@@ -480,9 +480,10 @@ def _species_offers(placements: Sequence[Placement], declared: set[str]) -> tupl
                     "mixed-repertoires",
                     f"the animals' species set {name} to {values[name]} and {value} ({animal.name}); "
                     "one controller runs them all",
-                    where=animal.gaits_at,
+                    where=repertoire_place(animal, name),
                     hint=f"set it for all of them (--set {name}=VALUE), or run each species in its own scene",
                 )
-            if animal.gaits_at is not None:
-                places[name] = animal.gaits_at
+            place = repertoire_place(animal, name)
+            if place is not None:
+                places[name] = place
     return values, places
