@@ -662,8 +662,9 @@ def test_trunk_rides_at_its_standing_height_without_a_waddle(animal, gait):
 # --------------------------------------------------------------------------- time on the ground (#13)
 
 DUTY_TOLERANCE = 0.1
-"""Each foot's measured duty factor within this of the one its controller asks (a real dog
-walks at 0.6-0.7 and trots at 0.4-0.5: docs/gaits.md, "Time on the ground")."""
+"""Each foot's measured duty factor within this of the one its controller asks (a real dog's
+walk and trot figures are not yet checked against the papers: docs/gaits.md, "Time on the
+ground")."""
 
 DUTY_SHORTFALLS = {
     ("bear", "walk"): "a foot is down 0.52 of the cycle (0.7 asked)",
