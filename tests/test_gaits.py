@@ -659,6 +659,53 @@ def test_trunk_rides_at_its_standing_height_without_a_waddle(animal, gait):
     assert trunk.roll_amplitude_deg <= MAX_ROLL_AMPLITUDE_DEG[gait], trunk
 
 
+# --------------------------------------------------------------------------- time on the ground (#13)
+
+DUTY_TOLERANCE = 0.1
+"""Each foot's measured duty factor within this of the one its controller asks (a real dog's
+walk and trot figures are not yet checked against the papers: docs/gaits.md, "Time on the
+ground")."""
+
+DUTY_SHORTFALLS = {
+    ("bear", "walk"): "a foot is down 0.52 of the cycle (0.7 asked)",
+    ("cat", "walk"): "a foot is down 0.55 of the cycle (0.7 asked)",
+    ("cow", "walk"): "a foot is down 0.54 of the cycle (0.7 asked)",
+    ("dog", "walk"): "a foot is down 0.56 of the cycle (0.7 asked)",
+    ("elephant", "walk"): "a foot is down 0.54 of the cycle (0.7 asked)",
+    ("goat", "walk"): "a foot is down 0.55 of the cycle (0.7 asked)",
+    ("horse", "walk"): "a foot is down 0.54 of the cycle (0.7 asked)",
+    ("lion", "walk"): "a foot is down 0.55 of the cycle (0.7 asked)",
+    ("pig", "walk"): "a foot is down 0.54 of the cycle (0.7 asked)",
+    ("rat", "walk"): "a foot is down 0.54 of the cycle (0.7 asked)",
+    ("bear", "trot"): "fore feet down 0.48, hind 0.16 of the cycle (0.45 asked)",
+    ("cat", "trot"): "fore feet down 0.19, hind 0.19 of the cycle (0.45 asked)",
+    ("cow", "trot"): "fore feet down 0.28, hind 0.12 of the cycle (0.45 asked)",
+    ("dog", "trot"): "fore feet down 0.22, hind 0.17 of the cycle (0.45 asked)",
+    ("elephant", "trot"): "fore feet down 0.52, hind 0.18 of the cycle (0.45 asked)",
+    ("goat", "trot"): "fore feet down 0.29, hind 0.13 of the cycle (0.45 asked)",
+    ("horse", "trot"): "fore feet down 0.28, hind 0.10 of the cycle (0.45 asked)",
+    ("lion", "trot"): "fore feet down 0.22, hind 0.18 of the cycle (0.45 asked)",
+    ("pig", "trot"): "fore feet down 0.32, hind 0.16 of the cycle (0.45 asked)",
+    ("rat", "trot"): "fore feet down 0.55, hind 0.24 of the cycle (0.45 asked)",
+}
+"""Measured (shortest leg): the walk's straight legs lose the ground 0.1-0.15 cycle before
+lift-off, and the trot's stiff legs vault the trunk off the ground (docs/gaits.md, "Time on
+the ground")."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("animal", "gait"), posture_cases(DUTY_SHORTFALLS))
+def test_each_foot_is_down_as_long_as_its_gait_asks(animal, gait):
+    """A walk keeps two or three feet down; a trot carries its weight in stance instead of
+    flying: every foot, the hind ones too, down for its gait's duty factor."""
+    from quadpipe.controllers.language.load import load_controller
+
+    asked = load_controller(gait).tunables["duty"].value
+    measured = measured_gait(animal, gait).gait
+    duties = {leg: measured.legs[leg].duty_factor for leg in roles.LEGS}
+    assert all(abs(duty - asked) <= DUTY_TOLERANCE for duty in duties.values()), (asked, duties)
+
+
 # --------------------------------------------------------------------------- head and tail carriage (#13)
 
 MAX_HEAD_DROP_HP = 0.15
