@@ -71,9 +71,7 @@ def number_text(value: float, digits: int = 10) -> str:
 
 
 CARROT_HP = 2.5
-"""How far ahead of the reference point along the path the animal steers, pelvis heights
-(`path_goal`; `path_far` is twice as far: `direct` steers between the two, further the
-faster it goes)."""
+"""How far ahead of the reference point along the path the animal steers, pelvis heights."""
 
 STAND_RAMP_NATURAL = 1.0
 """How long the gait takes to fade into a stand (and back), natural times."""
@@ -105,7 +103,6 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
     - `path_point`: where the pelvis should be now, on the path;
     - `path_goal`: the point `CARROT_HP` further along, which the animal steers toward (during
       a turn, swinging round the turn's mark);
-    - `path_far`: the point twice `CARROT_HP` along (straight on past a turn's mark);
     - `path_tangent`: the path's direction at `path_point` (a unit vector);
     - `path_speed`: the asked speed now (0 while standing);
     - `path_stand`: 0 while moving, 1 while standing, a smooth ramp between;
@@ -128,7 +125,6 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
             for text in (timed_points_text(timeline, CARROT_HP * hp), _turns_text(timeline, CARROT_HP * hp))
             if text
         ),
-        "path_far": timed_points_text(timeline, 2 * CARROT_HP * hp),
         "path_tangent": _tangent_text(timeline),
         "path_speed": _steps_text([(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"),
         "path_stand": _stand_text(timeline.stands(), ramp),
