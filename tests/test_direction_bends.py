@@ -12,6 +12,7 @@ import pytest
 import yaml
 
 from quadpipe.analysis.direction import direction_reports, format_direction
+from quadpipe.clip.model import Clip
 from quadpipe.core.configs import available
 from quadpipe.core.errors import Location
 from quadpipe.world.timeline import (
@@ -61,7 +62,7 @@ def played(animal: str, body_text: str, folder: Path) -> tuple:
     return result.clip, timeline, build.warnings
 
 
-def pelvis_hp(clip) -> np.ndarray:
+def pelvis_hp(clip: Clip) -> np.ndarray:
     """The pelvis's (x, y) track in pelvis heights."""
     from quadpipe.anatomy import roles
 
@@ -126,7 +127,9 @@ toward a point 2.5 HP along the path at any speed (a look-ahead growing with the
         for case in CIRCLES
     ],
 )
-def test_the_animal_turns_at_the_radius_asked(tmp_path_factory, animal: str, froude: float, radius: float) -> None:
+def test_the_animal_turns_at_the_radius_asked(
+    tmp_path_factory: pytest.TempPathFactory, animal: str, froude: float, radius: float
+) -> None:
     points = circle(radius)
     body = {"path": {"points": points}, "beats": [{"to": len(points) - 1, "froude": froude}]}
     clip, timeline, _ = played(animal, yaml.safe_dump(body), tmp_path_factory.getbasetemp())
@@ -146,7 +149,7 @@ def hairpin(radius_hp: float) -> list[list]:
 
 
 @pytest.mark.slow
-def test_an_untimed_trot_slows_for_a_tight_bend_and_follows_it(tmp_path_factory) -> None:
+def test_an_untimed_trot_slows_for_a_tight_bend_and_follows_it(tmp_path_factory: pytest.TempPathFactory) -> None:
     points = hairpin(1.0)
     body = {"path": {"points": points}, "beats": [{"to": len(points) - 1, "froude": 0.6}]}
     clip, timeline, warnings = played("dog", yaml.safe_dump(body), tmp_path_factory.getbasetemp())
@@ -188,7 +191,7 @@ TURN_SHORTFALLS = {
         for animal in available("animals")
     ],
 )
-def test_every_animal_turns_in_place(tmp_path_factory, animal: str) -> None:
+def test_every_animal_turns_in_place(tmp_path_factory: pytest.TempPathFactory, animal: str) -> None:
     clip, _, _ = played(animal, yaml.safe_dump(turn_in_place(animal)), tmp_path_factory.getbasetemp())
     (report,) = direction_reports(clip)
     turn = next(b for b in report.beats if b.kind == "turn")
