@@ -23,7 +23,7 @@ from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.world.direction import load_direction
 from quadpipe.world.schema import DIRECTION_SCHEMA_PATH, direction_json_schema, direction_schema_text
 from quadpipe.world.timeline import BeatValues, dense_path, follower_timeline, plan_direction
-from tests.conftest import FIXTURES, REPO
+from tests.conftest import FIXTURES, REPO, built_animal
 
 DIRECTIONS = FIXTURES / "direction"
 
@@ -434,14 +434,29 @@ FIGURE_EIGHT = [[0, 0, 0], ["3 HP", "3 HP", 0], ["6 HP", 0, 0], ["3 HP", "-3 HP"
 """One loop of the figure-eight fixture: bends of 0.77 HP radius at its points."""
 
 
-@pytest.mark.parametrize(("froude", "bends"), [(0.15, 0), (0.6, 3)])
+@pytest.mark.parametrize(("froude", "timed", "bends"), [(0.15, False, 0), (0.6, False, 0), (0.6, True, 3)])
 def test_bends_tighter_than_the_animal_can_follow_at_its_speed_are_warned_of(
-    tmp_path: Path, froude: float, bends: int
+    tmp_path: Path, froude: float, timed: bool, bends: int
 ) -> None:
+    """A move given a speed slows for its tight bends (tests/test_direction_bends.py); one
+    given an arrival time that asks for that speed cannot, and is warned of them."""
+    from quadpipe.quantities.units import STANDARD_GRAVITY
     from quadpipe.sim.simulation import Simulation
 
-    body = {"path": {"points": FIGURE_EIGHT, "smooth": True}, "beats": [{"to": 4, "froude": froude}]}
-    direction = write_direction(tmp_path, "dog", body)
+    beat: dict = {"to": 4, "froude": froude}
+    if timed:
+        (loop,) = Simulation.build(
+            "dog",
+            None,
+            direction=write_direction(
+                tmp_path,
+                "dog",
+                {"path": {"points": FIGURE_EIGHT, "smooth": True}, "beats": [{"to": 4, "froude": 0.15}]},
+            ),
+        ).setup.timelines.values()
+        hp = built_animal("dog").animal.pelvis_height
+        beat = {"to": 4, "at": f"{loop.segments[0].s1 / math.sqrt(froude * STANDARD_GRAVITY * hp):.9f} s"}
+    direction = write_direction(tmp_path, "dog", {"path": {"points": FIGURE_EIGHT, "smooth": True}, "beats": [beat]})
     warnings = Simulation.build("dog", None, direction=direction).warnings
     assert [issue.code for issue in warnings] == ["direction-tight-bend"] * bends
     for issue in warnings:

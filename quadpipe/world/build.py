@@ -15,7 +15,7 @@ from quadpipe.animals import sizing
 from quadpipe.animals.model import BuiltAnimal
 from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.quantities import units
-from quadpipe.world.direction import DirectionSpec, bend_warnings, scene_timelines
+from quadpipe.world.direction import DirectionSpec, bend_warnings, body_length, scene_timelines
 from quadpipe.world.format import AnimalGrid, Ground
 from quadpipe.world.goals import check_direction_length, direction_parameters, goal_text
 from quadpipe.world.loading import SceneSpec, entry_names, is_path
@@ -145,7 +145,8 @@ def build_scene(
     throws = plan_throws(scene, values, [placement.name for placement in placements], -float(spec.option.gravity[2]))
     add_thrown(spec, throws, tau, hp)
     goals = {name: goal_text(scene, values, name) for name in scene.file.goals}
-    timelines = scene_timelines(scene, values, [placement.name for placement in placements], scale, direction)
+    lengths = {placement.name: body_length(placement.built.animal) for placement in placements}
+    timelines = scene_timelines(scene, values, [placement.name for placement in placements], scale, direction, lengths)
     directions = {
         p.name: direction_parameters(timelines[p.name], *_sizes(p.built)) for p in placements if p.name in timelines
     }

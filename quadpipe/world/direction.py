@@ -23,7 +23,14 @@ from quadpipe.quantities import units
 from quadpipe.world.curves import CURVE_SUFFIXES, CurveError, read_curve
 from quadpipe.world.direction_format import MAX_PATH_POINTS, AnimalDirection, DirectionFile, Hold, Move, Turn
 from quadpipe.world.loading import SceneSpec, file_order, quantity_issues, schema_issues, validate_part
-from quadpipe.world.timeline import BeatValues, Timeline, follower_timeline, plan_direction, tight_bends
+from quadpipe.world.timeline import (
+    BeatValues,
+    Timeline,
+    follower_timeline,
+    plan_direction,
+    slow_for_bends,
+    tight_bends,
+)
 from quadpipe.world.values import Values
 
 
@@ -61,7 +68,12 @@ def load_direction(path: str | Path) -> DirectionSpec:
 
 
 def scene_timelines(
-    scene: SceneSpec, values: Values, names: list[str], scale: units.Scale, direction: DirectionSpec | None = None
+    scene: SceneSpec,
+    values: Values,
+    names: list[str],
+    scale: units.Scale,
+    direction: DirectionSpec | None = None,
+    body_lengths: dict[str, float] | None = None,
 ) -> dict[str, Timeline]:
     """Each directed animal's timeline: the direction file's if given, else the scene's.
 
@@ -71,6 +83,9 @@ def scene_timelines(
         names: the scene's animals, in order.
         scale: the first animal's scale (a direction file's values are evaluated for it).
         direction: a direction file that replaces the scene's `direction:`.
+        body_lengths: the animals' body lengths (`body_length`), metres: an animal given one
+            slows for the bends too tight for its speed where no arrival time forbids it
+            (`quadpipe.world.timeline.slow_for_bends`; its followers with it).
 
     Raises:
         QuadpipeError: a direction for an animal the scene does not have, a move to a
@@ -97,7 +112,8 @@ def scene_timelines(
             continue
         if animal.follow is None:
             timeline, found_issues = _play(animal, path, evaluated, natural_time, source)
-            timelines[name] = timeline
+            length = (body_lengths or {}).get(name)
+            timelines[name] = timeline if length is None else slow_for_bends(timeline, length, natural_time)
             issues += found_issues
     if issues:
         raise QuadpipeError(sorted(issues, key=file_order))

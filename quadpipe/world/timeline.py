@@ -10,6 +10,7 @@ writes it as controller-language text for `direct` (configs/controllers/direct.y
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Callable, Sequence
@@ -44,6 +45,7 @@ class Segment:
         look: the point the head turns to during the beat, [x, y, z] metres (None: ahead).
         turn: a turn's angle, radians counter-clockwise (0 for other beats).
         pose: a hold's pose: `stand`, `sit` or `lie` (`stand` for other beats).
+        timed: whether a move was asked to arrive at a time (its speed may not change).
     """
 
     kind: str
@@ -58,6 +60,7 @@ class Segment:
     look: list[float] | None = None
     turn: float = 0.0
     pose: str = "stand"
+    timed: bool = False
 
 
 @dataclass
@@ -217,7 +220,19 @@ def plan_direction(
             speed = (target - distance) / (beat.arrival - now) if beat.arrival is not None else float(beat.speed or 0)
             end = now + (target - distance) / speed
             timeline.segments.append(
-                Segment("move", index, now, end, distance, target, speed, beat.point, beat.gait, beat.look)
+                Segment(
+                    "move",
+                    index,
+                    now,
+                    end,
+                    distance,
+                    target,
+                    speed,
+                    beat.point,
+                    beat.gait,
+                    beat.look,
+                    timed=beat.arrival is not None,
+                )
             )
             now, at_point, distance = end, beat.point, target
         else:
@@ -309,15 +324,107 @@ def tight_bends(timeline: Timeline, body_length: float) -> list[Bend]:
 def _tight_corner(timeline: Timeline, k: int, body_length: float) -> Bend | None:
     """Corner `k` of a timeline's polyline as a `Bend`, if the animal moves through it and
     it is tighter than it can follow (see `tight_bends`); None otherwise."""
-    points = timeline.points
     speed = _speed_through(timeline.segments, float(timeline.lengths[k]))
+    radius = corner_radius(timeline.points, k)
+    if speed <= 0:
+        return None
+    least = least_radius(speed, body_length)
+    return Bend(timeline.points[k].copy(), radius, least, speed) if radius < least * (1 - BEND_ROUNDING) else None
+
+
+def corner_radius(points: np.ndarray, k: int) -> float:
+    """The radius of corner `k` of a polyline, metres (see `tight_bends`; infinite where it is straight)."""
     before, after = points[k] - points[k - 1], points[k + 1] - points[k]
     angle = abs(math.atan2(float(before[0] * after[1] - before[1] * after[0]), float(np.dot(before, after))))
-    if speed <= 0 or angle < 1e-9:
-        return None
-    radius = 0.5 * float(np.linalg.norm(before) + np.linalg.norm(after)) / angle
-    least = least_radius(speed, body_length)
-    return Bend(points[k].copy(), radius, least, speed) if radius < least else None
+    return 0.5 * float(np.linalg.norm(before) + np.linalg.norm(after)) / angle if angle > 1e-9 else math.inf
+
+
+BEND_ROUNDING = 1e-9
+"""A corner counts as tighter than the animal follows when its radius is under the least by
+more than this fraction (`bend_speed` gives the least radius back to rounding)."""
+
+BEND_LEAD_NATURAL = 2.0
+"""How long before a bend, in natural times at the speed it slows from, an animal slows for
+it (the gait takes one or two natural times to change its speed)."""
+
+BEND_EXIT_BODY_LENGTHS = 1.0
+"""How far past a bend an animal keeps its slower speed, body lengths (its hind legs are
+still in the bend)."""
+
+
+def bend_speed(radius: float, body_length: float) -> float:
+    """The fastest speed, m/s, at which an animal `body_length` metres long follows a bend of
+    `radius` metres (`least_radius` inverted; below half a body length, the speed at which it
+    follows its tightest bend)."""
+    return math.sqrt(LATERAL_GRIP * STANDARD_GRAVITY * max(radius, WALK_BEND_BODY_LENGTHS * body_length))
+
+
+def slow_for_bends(timeline: Timeline, body_length: float, natural_time: float) -> Timeline:
+    """The timeline with its untimed moves slowed for the bends too tight for their speed
+    (`least_radius`): from `BEND_LEAD_NATURAL` before each such corner of the polyline to
+    `BEND_EXIT_BODY_LENGTHS` past it, the move goes at `bend_speed` (a move split into
+    pieces of the same beat). A timed move keeps its speed: its arrival comes first, and
+    `tight_bends` warns of its bends."""
+    lengths = timeline.lengths
+    corners = [(float(lengths[k]), corner_radius(timeline.points, k)) for k in range(1, len(lengths) - 1)]
+    segments: list[Segment] = []
+    for segment in timeline.segments:
+        now = segments[-1].end if segments else 0.0
+        slow = []
+        if segment.kind == "move" and not segment.timed:
+            lead, past = BEND_LEAD_NATURAL * natural_time * segment.speed, BEND_EXIT_BODY_LENGTHS * body_length
+            tight = [
+                (at, radius)
+                for at, radius in corners
+                if segment.s0 < at < segment.s1 and radius < least_radius(segment.speed, body_length)
+            ]
+            slow = [
+                (run[0][0] - lead, run[-1][0] + past, bend_speed(min(r for _, r in run), body_length))
+                for run in _runs(tight, lead + past)
+            ]
+        if slow:
+            for s0, s1, speed in _speed_pieces(segment.s0, segment.s1, segment.speed, slow):
+                end = now + (s1 - s0) / speed
+                segments.append(dataclasses.replace(segment, start=now, end=end, s0=s0, s1=s1, speed=speed))
+                now = end
+        elif now == segment.start:
+            segments.append(segment)
+        elif segment.timed and segment.end > now:
+            speed = (segment.s1 - segment.s0) / (segment.end - now)
+            segments.append(dataclasses.replace(segment, start=now, speed=speed))
+        else:
+            segments.append(dataclasses.replace(segment, start=now, end=now + segment.end - segment.start))
+    return Timeline(timeline.points, segments)
+
+
+def _runs(corners: Sequence[tuple[float, float]], gap: float) -> list[list[tuple[float, float]]]:
+    """Corners (distance along the path, radius) grouped into runs, a run ending where the
+    next corner is more than `gap` metres further along."""
+    runs: list[list[tuple[float, float]]] = []
+    for corner in corners:
+        if runs and corner[0] - runs[-1][-1][0] <= gap:
+            runs[-1].append(corner)
+        else:
+            runs.append([corner])
+    return runs
+
+
+def _speed_pieces(
+    s0: float, s1: float, speed: float, slow: Sequence[tuple[float, float, float]]
+) -> list[tuple[float, float, float]]:
+    """A move from `s0` to `s1` metres at `speed` as pieces (from, to, speed), slower on the
+    stretches `slow` (from, to, speed) that overlap it: each piece at the slowest speed
+    asked over it, neighbours at the same speed merged."""
+    cuts = sorted({s0, s1} | {min(max(edge, s0), s1) for start, stop, _ in slow for edge in (start, stop)})
+    pieces: list[tuple[float, float, float]] = []
+    for start, stop in zip(cuts, cuts[1:]):
+        middle = (start + stop) / 2
+        wanted = min([speed] + [v for a, b, v in slow if a <= middle <= b])
+        if pieces and pieces[-1][2] == wanted:
+            pieces[-1] = (pieces[-1][0], stop, wanted)
+        elif stop > start:
+            pieces.append((start, stop, wanted))
+    return pieces
 
 
 def _speed_through(segments: Sequence[Segment], distance: float) -> float:
