@@ -35,6 +35,7 @@ from quadpipe.quantities.nodes import (
     POINT_TYPE,
     REST_PREFIX,
     SCALAR,
+    TABLE_FUNCTION,
     TIME_VARIABLE,
     VECTOR,
     Expect,
@@ -307,11 +308,73 @@ class _Checker:
             raise self.fail("forbidden-syntax", f"{name}() takes no named arguments")
         if name in SPECIAL_ARGUMENT_FUNCTIONS:
             return self._named_argument_call(name, node.args)
+        if name == TABLE_FUNCTION:
+            return self._table(node.args)
         args = [self.check(arg) for arg in node.args]
         for arg in args:
             if arg.type.kind == BOOL:
                 raise self.fail("wrong-type", f"{name}() takes values, got a condition")
         return Expr("call", FUNCTIONS[name].result([arg.type for arg in args], self.text), tuple(args), name)
+
+    def _table(self, args: list[ast.expr]) -> Expr:
+        """`interp(x, [x0, x1, ...], [y0, y1, ...])`: a table node, `interp`, whose arguments are
+        x, the breakpoints, then the values, and whose value is the number of breakpoints."""
+        hint = f"see `{FUNCTIONS[TABLE_FUNCTION].signature}`"
+        if len(args) != 3:
+            raise self.fail("wrong-arguments", f"{TABLE_FUNCTION}() takes 3 arguments, got {len(args)}", hint)
+        if not (isinstance(args[1], ast.List) and isinstance(args[2], ast.List)):
+            raise self.fail(
+                "wrong-arguments", f"{TABLE_FUNCTION}() takes its breakpoints and its values as lists [...]", hint
+            )
+        x = self.check(args[0])
+        breakpoints, values = self._table_list(args[1], "breakpoints"), self._table_list(args[2], "values")
+        if len(breakpoints) != len(values):
+            raise self.fail(
+                "table-lengths",
+                f"the table has {len(breakpoints)} breakpoints but {len(values)} values",
+                "give one value per breakpoint",
+            )
+        if len(breakpoints) < 2:
+            raise self.fail(
+                "table-size", f"a table needs at least 2 points, got {len(breakpoints)}", "a constant needs no table"
+            )
+        if x.type.kind != SCALAR or breakpoints[0].type.kind != SCALAR:
+            raise self.fail(
+                "wrong-type",
+                f"a table is read at a number, with numbers as breakpoints, got {x.type.describe()} "
+                f"and {breakpoints[0].type.describe()}",
+                hint,
+            )
+        if x.type.dim != breakpoints[0].type.dim:
+            raise self.fail(
+                "dimension-mismatch",
+                f"a table whose breakpoints are {units.dimension_name(breakpoints[0].type.dim, plural=True)} "
+                f"is read at {x.type.describe()}",
+                "give the breakpoints the unit of the first argument (`interp(t, [0 s, 2 s], ...)`)",
+            )
+        _need_order(breakpoints, self.text)
+        return Expr("interp", values[0].type, (x, *breakpoints, *values), len(breakpoints))
+
+    def _table_list(self, node: ast.List, what: str) -> list[Expr]:
+        """The checked items of one list of a table: constants of one type (a plain 0 takes the
+        unit of the others, as in vectors)."""
+        items = _zeros_take_unit([self.check(item) for item in node.elts])
+        for item in items:
+            if item.type.kind == BOOL:
+                raise self.fail("wrong-type", f"the {what} of a table are values, got a condition")
+            if item.needs:
+                raise self.fail(
+                    "table-not-constant",
+                    f"the {what} of a table are constants, but one reads the simulation ({sorted(item.needs)[0]})",
+                    "a table holds numbers with units; compute with its result instead",
+                )
+        kinds = {item.type for item in items}
+        if len(kinds) > 1:
+            listed = " and ".join(sorted(kind.describe() for kind in kinds))
+            raise self.fail(
+                "table-units", f"the {what} of a table mix {listed}", f"give all the {what} one kind of unit"
+            )
+        return items
 
     def _named_argument_call(self, name: str, args: list[ast.expr]) -> Expr:
         if len(args) != 1 or not isinstance(args[0], ast.Name):
@@ -507,6 +570,26 @@ def _need_in_domain(call: Expr, text: str) -> None:
             "non-finite-number",
             f"in {text!r}: {function.name}() is given a constant that is not {words}: its value is not a number",
             "check the sign and the units of what it is given",
+        )
+
+
+def _need_order(breakpoints: Sequence[Expr], text: str) -> None:
+    """Refuse a table whose breakpoints decrease, for any animal of `_SAMPLE_SCALE` (a repeat
+    is a jump, allowed); breakpoints reading rest lengths are left unchecked.
+
+    Raises:
+        ExprError: `table-order`.
+    """
+    if any(_reads_rest(point) for point in breakpoints):
+        return
+    values = np.array([compile_expr(point, _SAMPLE_SCALE)({}) for point in breakpoints])
+    falls = np.nonzero(np.any(np.diff(values, axis=0) < 0, axis=1))[0]
+    if falls.size:
+        raise ExprError(
+            "table-order",
+            f"in {text!r}: the breakpoints of a table must not decrease, "
+            f"but breakpoint {falls[0] + 2} is below breakpoint {falls[0] + 1}",
+            "sort the table's points by their breakpoint (repeat a breakpoint for a jump)",
         )
 
 

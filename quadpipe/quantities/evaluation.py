@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from quadpipe.quantities import units
-from quadpipe.quantities.functions import FUNCTIONS
+from quadpipe.quantities.functions import FUNCTIONS, table_interp
 from quadpipe.quantities.nodes import BOOL, HEADING_FRAME_KEY, REST_PREFIX, SCALAR, VECTOR, Expr, Type
 
 Env = Mapping[str, np.ndarray]
@@ -109,6 +109,9 @@ def _build_node(expr: Expr, scale: units.Scale, n: int, built: _Built) -> Callab
         return lambda env: unit_value
     if op == "var":
         return _build_var(expr, scale, n)
+    if op == "interp":
+        x, (breakpoints, values) = _build(expr.args[0], scale, built), table_arrays(expr, scale, built)
+        return lambda env: table_interp(x(env), breakpoints, values)
     args = [_build(arg, scale, built) for arg in expr.args]
     types = [arg.type for arg in expr.args]
     if op == "call":
@@ -119,6 +122,25 @@ def _build_node(expr: Expr, scale: units.Scale, n: int, built: _Built) -> Callab
         (vector,), index = args, expr.value
         return lambda env: vector(env)[..., index]
     return _OPERATORS[op](args, types)
+
+
+def table_arrays(expr: Expr, scale: units.Scale, built: _Built | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The breakpoints (n, m) and the values ((n, m) or (n, m, 3)) of a table node (`interp`,
+    whose arguments are x, the m breakpoints and the m values, all constants) for the animals
+    of `scale`."""
+    built = {} if built is None else built
+    columns = [_build(arg, scale, built)({}) for arg in expr.args[1:]]
+    return np.stack(columns[: expr.value], axis=1), np.stack(columns[expr.value :], axis=1)
+
+
+def table_rows(expr: Expr, scale: units.Scale) -> tuple[np.ndarray, np.ndarray]:
+    """The breakpoints and the values of a table node as rows of registers, (m, n, 3) each (a
+    number in all three components): what the kernel reads (see `lowering`)."""
+    breakpoints, values = table_arrays(expr, scale)
+    values = values if values.ndim == 3 else np.repeat(values[..., None], 3, axis=2)
+    return np.ascontiguousarray(np.repeat(breakpoints.T[..., None], 3, axis=2)), np.ascontiguousarray(
+        values.transpose(1, 0, 2)
+    )
 
 
 def _build_var(expr: Expr, scale: units.Scale, n: int) -> Callable[[Env], np.ndarray]:

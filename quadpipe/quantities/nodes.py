@@ -38,6 +38,10 @@ CONSTANTS: dict[str, float] = {"pi": math.pi}
 TIME_VARIABLE = "t"
 """The variable holding the time since the controller started."""
 
+TABLE_FUNCTION = "interp"
+"""The function reading a table: `interp(x, [x0, x1, ...], [y0, y1, ...])` (its lists are
+tables, of any length; see `checking.py` and `parsing.table_lists`)."""
+
 ZERO_NORM = 1e-12
 """Vectors shorter than this have no direction: `normalize` returns zero for them."""
 

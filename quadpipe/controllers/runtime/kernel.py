@@ -72,6 +72,9 @@ NEG, NOT, SIN, COS, TAN, ASIN, ACOS, ATAN, SQRT, EXP, LOG, ABS, SIGN, WRAP = ran
 CLAMP, SMOOTHSTEP, MIX, SELECT, LEG_SWEEP, LEG_LIFT = 30, 31, 32, 33, 34, 35
 # Vector ops (dst, a, b are registers; COMP's b is the component index).
 VEC, COMP, NORM, NORMALIZE, DOT, CROSS, ANGLE, HORIZONTAL = 40, 41, 42, 43, 44, 45, 46, 47
+# Tables: INTERP(dst, a = x, b = first of the breakpoints' registers, c = first of the values',
+# e = their number): the table at x (see `_interp`).
+INTERP = 48
 # Frames: HEADING(dst, a); BODYROT(dst, a, b = row of `frame_body`).
 HEADING, BODYROT = 50, 51
 # Simulation reads: POINT/VELOCITY(dst, a = row of `point_body`); CONTACT(dst, a = leg);
@@ -250,6 +253,30 @@ def _elementwise(op: int, x: float, y: float, z: float) -> float:
 
 
 @numba.njit(cache=True)
+def _interp(reg: np.ndarray, dst: int, i: int, x: float, first: int, values: int, count: int) -> None:
+    """Animal i's table at x into `reg[dst, i]`: the breakpoints are `reg[first + j, i, 0]`, not
+    decreasing, the values `reg[values + j, i]`; linear between breakpoints, held at the ends,
+    a repeated breakpoint's last value from it on (as `functions.table_interp`). A binary search:
+    O(log count)."""
+    low, high = 0, count
+    while low < high:
+        middle = (low + high) // 2
+        if reg[first + middle, i, 0] <= x:
+            low = middle + 1
+        else:
+            high = middle
+    j = low - 1
+    for k in range(3):
+        if x != x:
+            reg[dst, i, k] = math.nan
+        elif j < 0 or j >= count - 1:
+            reg[dst, i, k] = reg[values + min(max(j, 0), count - 1), i, k]
+        else:
+            u = (x - reg[first + j, i, 0]) / (reg[first + j + 1, i, 0] - reg[first + j, i, 0])
+            reg[dst, i, k] = reg[values + j, i, k] + u * (reg[values + j + 1, i, k] - reg[values + j, i, k])
+
+
+@numba.njit(cache=True)
 def _unit(x: float, y: float, z: float) -> tuple[float, float, float]:
     """The direction of (x, y, z) (no array: the kernel allocates nothing per step)."""
     length = math.sqrt(x * x + y * y + z * z)
@@ -423,6 +450,9 @@ def run(
                 vx, vy, vz = _unit(reg[b, i, 0], reg[b, i, 1], reg[b, i, 2])
                 value = math.acos(min(max(ux * vx + uy * vy + uz * vz, -1.0), 1.0))
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
+        elif op == INTERP:
+            for i in range(n):
+                _interp(reg, dst, i, reg[a, i, 0], b, c, e)
         elif op == HORIZONTAL:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = reg[a, i, 0], reg[a, i, 1], 0.0
