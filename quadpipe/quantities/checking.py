@@ -22,7 +22,7 @@ from quadpipe.anatomy.roles import LEGS, PARENT, ROLES
 from quadpipe.core.errors import did_you_mean
 from quadpipe.core.limits import MAX_EXPRESSION_DEPTH
 from quadpipe.quantities import units
-from quadpipe.quantities.evaluation import Compiled, compile_expr, evaluate_constant
+from quadpipe.quantities.evaluation import Compiled, compile_expr, evaluate_constant, table_arrays
 from quadpipe.quantities.functions import FUNCTIONS, LOCAL_HELP, LOCAL_NAMES, SPECIAL_ARGUMENT_FUNCTIONS
 from quadpipe.quantities.nodes import (
     BOOL,
@@ -95,6 +95,8 @@ class _Checker:
     def __init__(self, namespace: Namespace, text: str) -> None:
         self.ns = namespace
         self.text = text
+        self.units: dict[str, Expr] = {}
+        """The node of each unit a table's points use (one shared node per unit)."""
 
     def fail(self, code: str, message: str, hint: str | None = None) -> ExprError:
         return ExprError(code, f"in {self.text!r}: {message}", hint)
@@ -352,13 +354,14 @@ class _Checker:
                 f"is read at {x.type.describe()}",
                 "give the breakpoints the unit of the first argument (`interp(t, [0 s, 2 s], ...)`)",
             )
-        _need_order(breakpoints, self.text)
-        return Expr("interp", values[0].type, (x, *breakpoints, *values), len(breakpoints))
+        table = Expr("interp", values[0].type, (x, *breakpoints, *values), len(breakpoints))
+        _need_finite_order(table, self.text)
+        return table
 
     def _table_list(self, node: ast.List, what: str) -> list[Expr]:
         """The checked items of one list of a table: constants of one type (a plain 0 takes the
         unit of the others, as in vectors)."""
-        items = _zeros_take_unit([self.check(item) for item in node.elts])
+        items = _zeros_take_unit([self._table_item(item) for item in node.elts])
         for item in items:
             if item.type.kind == BOOL:
                 raise self.fail("wrong-type", f"the {what} of a table are values, got a condition")
@@ -368,13 +371,43 @@ class _Checker:
                     f"the {what} of a table are constants, but one reads the simulation ({sorted(item.needs)[0]})",
                     "a table holds numbers with units; compute with its result instead",
                 )
-        kinds = {item.type for item in items}
-        if len(kinds) > 1:
-            listed = " and ".join(sorted(kind.describe() for kind in kinds))
+            if not _is_literal(item):
+                refuse_bad_constants(item, self.text)
+        other = next((item.type for item in items if item.type != items[0].type), None)
+        if other is not None:
+            listed = " and ".join(sorted((items[0].type.describe(), other.describe())))
             raise self.fail(
                 "table-units", f"the {what} of a table mix {listed}", f"give all the {what} one kind of unit"
             )
         return items
+
+    def _table_item(self, node: ast.expr) -> Expr:
+        """One point of a table: a number with a unit (`-1.5 m`), or a vector of them, read
+        straight from its syntax (a table may have thousands), sharing each unit's node; any
+        other value checked as usual."""
+        if isinstance(node, ast.List) and len(node.elts) == 3:
+            items = [self._table_item(item) for item in node.elts]
+            if items[0].type is items[1].type is items[2].type and items[0].type.kind == SCALAR:
+                return Expr("vec", Type(VECTOR, items[0].type.dim), tuple(items))
+            return make_vector(items, self.text)
+        sign, inner = (
+            (-1.0, node.operand) if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub) else (1.0, node)
+        )
+        number = inner.left if isinstance(inner, ast.BinOp) and isinstance(inner.op, ast.Mult) else inner
+        unit = inner.right if isinstance(inner, ast.BinOp) and isinstance(inner.op, ast.Mult) else None
+        if not isinstance(number, ast.Constant) or not (unit is None or isinstance(unit, ast.Name)):
+            return self.check(node)
+        if unit is not None and (
+            unit.id not in units.UNITS or unit.id in self.ns.parameters or unit.id in self.ns.locals
+        ):
+            return self.check(node)
+        value = Expr("num", NUMBER, value=sign * finite_number(number.value, self.text))
+        if unit is None:
+            return value
+        if unit.id not in self.units:
+            self.units[unit.id] = self._name(unit)
+        scaled = self.units[unit.id]
+        return Expr("mul", scaled.type, (value, scaled))
 
     def _named_argument_call(self, name: str, args: list[ast.expr]) -> Expr:
         if len(args) != 1 or not isinstance(args[0], ast.Name):
@@ -523,7 +556,7 @@ def refuse_bad_constants(expr: Expr, text: str) -> None:
         if id(node) not in seen:
             seen.add(id(node))
             order.append(node)
-            stack.extend(node.args)
+            stack.extend(node.args[:1] if node.op == "interp" else node.args)  # a table checks its points
     with np.errstate(all="ignore"):
         for node in reversed(order):
             if node.op == "div" and _is_fixed(node.args[1]) and np.all(evaluate_constant(node.args[1]) == 0):
@@ -573,17 +606,21 @@ def _need_in_domain(call: Expr, text: str) -> None:
         )
 
 
-def _need_order(breakpoints: Sequence[Expr], text: str) -> None:
-    """Refuse a table whose breakpoints decrease, for any animal of `_SAMPLE_SCALE` (a repeat
-    is a jump, allowed); breakpoints reading rest lengths are left unchecked.
+def _need_finite_order(table: Expr, text: str) -> None:
+    """Refuse a table whose points are not finite or whose breakpoints decrease, for any animal
+    of `_SAMPLE_SCALE` (a repeat is a jump, allowed); tables reading rest lengths are left to
+    the runtime.
 
     Raises:
-        ExprError: `table-order`.
+        ExprError: `non-finite-number`, `table-order`.
     """
-    if any(_reads_rest(point) for point in breakpoints):
+    if _reads_rest(table):
         return
-    values = np.array([compile_expr(point, _SAMPLE_SCALE)({}) for point in breakpoints])
-    falls = np.nonzero(np.any(np.diff(values, axis=0) < 0, axis=1))[0]
+    with np.errstate(all="ignore"):
+        breakpoints, values = table_arrays(table, _SAMPLE_SCALE)
+    _need_finite(breakpoints, text)
+    _need_finite(values, text)
+    falls = np.nonzero(np.any(np.diff(breakpoints, axis=1) < 0, axis=0))[0]
     if falls.size:
         raise ExprError(
             "table-order",
@@ -591,6 +628,12 @@ def _need_order(breakpoints: Sequence[Expr], text: str) -> None:
             f"but breakpoint {falls[0] + 2} is below breakpoint {falls[0] + 1}",
             "sort the table's points by their breakpoint (repeat a breakpoint for a jump)",
         )
+
+
+def _is_literal(expr: Expr) -> bool:
+    """Whether a node is a number with a unit, or a vector of them (no division, nothing that
+    can overflow but what `_need_finite_order` finds)."""
+    return expr.op in ("num", "unit", "neg", "mul", "vec") and all(_is_literal(arg) for arg in expr.args)
 
 
 def _reads_rest(expr: Expr) -> bool:

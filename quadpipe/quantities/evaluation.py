@@ -129,8 +129,25 @@ def table_arrays(expr: Expr, scale: units.Scale, built: _Built | None = None) ->
     whose arguments are x, the m breakpoints and the m values, all constants) for the animals
     of `scale`."""
     built = {} if built is None else built
-    columns = [_build(arg, scale, built)({}) for arg in expr.args[1:]]
+    columns = [_constant_value(arg, scale, built) for arg in expr.args[1:]]
     return np.stack(columns[: expr.value], axis=1), np.stack(columns[expr.value :], axis=1)
+
+
+def _constant_value(expr: Expr, scale: units.Scale, built: _Built) -> np.ndarray:
+    """The value of a constant node for the animals of `scale`, (n,) or (n, 3): numbers with
+    units (and vectors of them) directly, a table's thousands of points at a few microseconds
+    each; any other node through `_build`."""
+    if expr.op == "num":
+        return np.full(scale.n, expr.value)
+    if expr.op == "unit":
+        return scale.unit_value(units.UNITS[expr.value])
+    if expr.op == "vec":
+        return np.stack([_constant_value(arg, scale, built) for arg in expr.args], axis=-1)
+    if expr.op == "neg":
+        return -_constant_value(expr.args[0], scale, built)
+    if expr.op == "mul" and expr.args[0].type.kind == expr.args[1].type.kind == SCALAR:
+        return _constant_value(expr.args[0], scale, built) * _constant_value(expr.args[1], scale, built)
+    return np.broadcast_to(_build(expr, scale, built)({}), _shape(expr.type, scale.n))
 
 
 def table_rows(expr: Expr, scale: units.Scale) -> tuple[np.ndarray, np.ndarray]:

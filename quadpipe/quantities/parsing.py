@@ -170,6 +170,23 @@ def _table_lists(tokens: list[tokenize.TokenInfo], text: str) -> list[tuple[int,
     return tables
 
 
+def _check_length(tokens: list[tokenize.TokenInfo], text: str) -> None:
+    """Refuse an expression over the length limits: its text without its tables
+    (`MAX_EXPRESSION_LENGTH`) and the points of each table (`MAX_TABLE_POINTS`); its whole
+    text (`MAX_TABLE_EXPRESSION_LENGTH`) is checked before it is split into `tokens`.
+
+    Raises:
+        ExprError: `limit-exceeded`.
+    """
+    tables = _table_lists(tokens, text)
+    own = len(text) - sum(characters for characters, _ in tables)
+    if own > MAX_EXPRESSION_LENGTH.value:
+        raise limit_error(MAX_EXPRESSION_LENGTH, own)
+    largest = max((items for _, items in tables), default=0)
+    if largest > MAX_TABLE_POINTS.value:
+        raise limit_error(MAX_TABLE_POINTS, largest)
+
+
 def _syntax_hint(text: str) -> str:
     """A hint for a syntax error, from common mistakes."""
     try:
@@ -216,13 +233,7 @@ def parse(text: str) -> ast.expr:
     if len(text) > MAX_TABLE_EXPRESSION_LENGTH.value:
         raise limit_error(MAX_TABLE_EXPRESSION_LENGTH, len(text))
     tokens = _tokens(text)
-    tables = _table_lists(tokens, text)
-    own = len(text) - sum(characters for characters, _ in tables)
-    if own > MAX_EXPRESSION_LENGTH.value:
-        raise limit_error(MAX_EXPRESSION_LENGTH, own)
-    largest = max((items for _, items in tables), default=0)
-    if largest > MAX_TABLE_POINTS.value:
-        raise limit_error(MAX_TABLE_POINTS, largest)
+    _check_length(tokens, text)
     code = _rewrite_tokens(tokens, text)
     try:
         tree = ast.parse(code, mode="eval")
@@ -233,25 +244,31 @@ def parse(text: str) -> ast.expr:
     except (RecursionError, MemoryError):
         raise limit_error(MAX_EXPRESSION_DEPTH) from None
     body: ast.AST = tree.body
-    depth = nesting_depth(body, lambda node: list(ast.iter_child_nodes(node)))
+    depth = nesting_depth(body, lambda node: _allowed_children(node, text))
     if depth > MAX_EXPRESSION_DEPTH.value:
         raise limit_error(MAX_EXPRESSION_DEPTH, depth)
-    for node in ast.walk(tree):
-        if not isinstance(node, _ALLOWED_NODES):
-            raise ExprError(
-                "forbidden-syntax",
-                f"{type(node).__name__.lower()} is not allowed in expressions: {text!r}",
-                "expressions may use numbers with units, + - * / ^, comparisons, and/or/not, `a if c else b`, [x, y, z] and the listed functions",
-            )
-        if isinstance(node, ast.Constant) and (
-            isinstance(node.value, bool) or not isinstance(node.value, (int, float))
-        ):
-            raise ExprError(
-                "forbidden-syntax",
-                f"only numbers may appear literally in {text!r}",
-                "remove the quotes or the text value",
-            )
     return tree.body
+
+
+def _allowed_children(node: ast.AST, text: str) -> list[ast.AST]:
+    """The children of a node of the parsed `text`, once it is checked against the whitelist.
+
+    Raises:
+        ExprError: `forbidden-syntax`.
+    """
+    if not isinstance(node, _ALLOWED_NODES):
+        raise ExprError(
+            "forbidden-syntax",
+            f"{type(node).__name__.lower()} is not allowed in expressions: {text!r}",
+            "expressions may use numbers with units, + - * / ^, comparisons, and/or/not, `a if c else b`, [x, y, z] and the listed functions",
+        )
+    if isinstance(node, ast.Constant) and (isinstance(node.value, bool) or not isinstance(node.value, (int, float))):
+        raise ExprError(
+            "forbidden-syntax",
+            f"only numbers may appear literally in {text!r}",
+            "remove the quotes or the text value",
+        )
+    return list(ast.iter_child_nodes(node))
 
 
 def referenced_names(value: Any) -> set[str]:
