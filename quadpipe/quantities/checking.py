@@ -508,11 +508,17 @@ def check(value: Any, namespace: Namespace) -> Expr:
     if not isinstance(value, str):
         raise ExprError("wrong-type", f"expected a value, got {type(value).__name__}")
     node = _Checker(namespace, value).check(parse(value))
-    depth = nesting_depth(node, lambda expr: expr.args)
+    depth = nesting_depth(node, _nested)
     if depth > MAX_EXPRESSION_DEPTH.value:
         raise limit_error(MAX_EXPRESSION_DEPTH, depth)
     refuse_bad_constants(node, value)
     return Expr(node.op, node.type, node.args, node.value, text=value)
+
+
+def _nested(expr: Expr) -> tuple[Expr, ...]:
+    """The nodes inside a node, for its nesting depth: a table's are its x only (its points are
+    numbers with units, a few levels deep, and there may be thousands)."""
+    return expr.args[:1] if expr.op == "interp" else expr.args
 
 
 NON_FINITE_WORDS = frozenset({"nan", "inf", "infinity"})

@@ -22,6 +22,7 @@ always zero, and constant parts that overflow, are refused when the expression i
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -128,9 +129,20 @@ def table_arrays(expr: Expr, scale: units.Scale, built: _Built | None = None) ->
     """The breakpoints (n, m) and the values ((n, m) or (n, m, 3)) of a table node (`interp`,
     whose arguments are x, the m breakpoints and the m values, all constants) for the animals
     of `scale`."""
-    built = {} if built is None else built
-    columns = [_constant_value(arg, scale, built) for arg in expr.args[1:]]
-    return np.stack(columns[: expr.value], axis=1), np.stack(columns[expr.value :], axis=1)
+    kept = _TABLES.setdefault(expr, {})
+    if id(scale) not in kept:
+        built = {} if built is None else built
+        columns = [_constant_value(arg, scale, built) for arg in expr.args[1:]]
+        kept[id(scale)] = (scale, np.stack(columns[: expr.value], axis=1), np.stack(columns[expr.value :], axis=1))
+    return kept[id(scale)][1:]
+
+
+_TABLES: weakref.WeakKeyDictionary[Expr, dict[int, tuple[units.Scale, np.ndarray, np.ndarray]]] = (
+    weakref.WeakKeyDictionary()
+)
+"""The arrays of each table node, by scale (`table_arrays`): a path's table is compiled into
+every value that uses it, and each of its thousands of points is folded once per scale (the
+scale is kept with them, so that its `id` is not reused while they are)."""
 
 
 def _constant_value(expr: Expr, scale: units.Scale, built: _Built) -> np.ndarray:

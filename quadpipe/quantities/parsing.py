@@ -274,12 +274,14 @@ def _allowed_children(node: ast.AST, text: str) -> list[ast.AST]:
 def referenced_names(value: Any) -> set[str]:
     """Bare names an expression value mentions (to order parameters); empty if it does not parse."""
     texts = value if isinstance(value, list) else [value]
-    names: set[str] = set()
-    for text in texts:
-        if isinstance(text, str):
-            try:
-                tree = parse(text)
-            except ExprError:
-                continue
-            names |= {node.id for node in ast.walk(tree) if isinstance(node, ast.Name)}
-    return names
+    return set().union(*(_names_in(text) for text in texts if isinstance(text, str)))
+
+
+@functools.lru_cache(maxsize=PARSED_TREES_KEPT)
+def _names_in(text: str) -> frozenset[str]:
+    """`referenced_names` of one text (cached by text, as `parse`: a path's table is thousands of nodes)."""
+    try:
+        tree = parse(text)
+    except ExprError:
+        return frozenset()
+    return frozenset(node.id for node in ast.walk(tree) if isinstance(node, ast.Name))
