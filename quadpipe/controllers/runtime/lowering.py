@@ -347,7 +347,7 @@ class _Lowerer:
                 self.constants |= {self.new_register(kind): row for row in rows}
             blocks.append(self.constant_keys[key])
         x = self.expr(expr.args[0], lowered)
-        return self.shared(self.memo.needs.get(x, frozenset()), vector, INTERP, x, *blocks, expr.value)
+        return self.shared(self.memo.needs.get(x, frozenset()), vector, INTERP, x, blocks[0], blocks[1], expr.value)
 
     def reduce(self, op: int, args: list[int]) -> int:
         result = args[0]
