@@ -9,8 +9,6 @@ inlined where they are used, so a checked expression is self-contained.
 from __future__ import annotations
 
 import ast
-import math
-import sys
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -22,7 +20,15 @@ from quadpipe.anatomy.roles import LEGS, PARENT, ROLES
 from quadpipe.core.errors import did_you_mean
 from quadpipe.core.limits import MAX_EXPRESSION_DEPTH
 from quadpipe.quantities import units
-from quadpipe.quantities.evaluation import Compiled, compile_expr, evaluate_constant, table_arrays
+from quadpipe.quantities.constants import (
+    NON_FINITE_WORDS,
+    finite_number,
+    is_literal,
+    need_finite,
+    need_finite_order,
+    refuse_bad_constants,
+)
+from quadpipe.quantities.evaluation import Compiled, compile_expr, evaluate_constant
 from quadpipe.quantities.functions import FUNCTIONS, LOCAL_HELP, LOCAL_NAMES, SPECIAL_ARGUMENT_FUNCTIONS
 from quadpipe.quantities.nodes import (
     BOOL,
@@ -33,7 +39,6 @@ from quadpipe.quantities.nodes import (
     NUMBER,
     POINT_ANCHORS,
     POINT_TYPE,
-    REST_PREFIX,
     SCALAR,
     TABLE_FUNCTION,
     TIME_VARIABLE,
@@ -247,7 +252,7 @@ class _Checker:
             )
         with np.errstate(all="ignore"):
             value = evaluate_constant(exponent)
-        _need_finite(value, self.text)
+        need_finite(value, self.text)
         power = Fraction(float(value)).limit_denominator(1000)
         return Expr("pow", Type(SCALAR, base.type.dim**power), (base, Expr("num", NUMBER, value=float(power))))
 
@@ -355,7 +360,7 @@ class _Checker:
                 "give the breakpoints the unit of the first argument (`interp(t, [0 s, 2 s], ...)`)",
             )
         table = Expr("interp", values[0].type, (x, *breakpoints, *values), len(breakpoints))
-        _need_finite_order(table, self.text)
+        need_finite_order(table, self.text)
         return table
 
     def _table_list(self, node: ast.List, what: str) -> list[Expr]:
@@ -371,7 +376,7 @@ class _Checker:
                     f"the {what} of a table are constants, but one reads the simulation ({sorted(item.needs)[0]})",
                     "a table holds numbers with units; compute with its result instead",
                 )
-            if not _is_literal(item):
+            if not is_literal(item):
                 refuse_bad_constants(item, self.text)
         other = next((item.type for item in items if item.type != items[0].type), None)
         if other is not None:
@@ -519,137 +524,6 @@ def _nested(expr: Expr) -> tuple[Expr, ...]:
     """The nodes inside a node, for its nesting depth: a table's are its x only (its points are
     numbers with units, a few levels deep, and there may be thousands)."""
     return expr.args[:1] if expr.op == "interp" else expr.args
-
-
-NON_FINITE_WORDS = frozenset({"nan", "inf", "infinity"})
-"""Names that read as numbers which are not finite (`--set froude=nan`, `inf * m/s`)."""
-
-
-def finite_number(value: Any, text: str) -> float:
-    """A literal number as a float; infinite or NaN ones (`1e309`, `.inf`, `.nan`) are refused.
-
-    Raises:
-        ExprError: `non-finite-number`.
-    """
-    try:
-        number = float(value)
-    except OverflowError:
-        number = math.inf
-    if not math.isfinite(number):
-        raise ExprError(
-            "non-finite-number",
-            f"{text if len(text) <= 40 else text[:20] + '...' + text[-8:]!r} is not a finite number",
-            f"write a number between -{sys.float_info.max:.3g} and {sys.float_info.max:.3g}",
-        )
-    return number
-
-
-def refuse_bad_constants(expr: Expr, text: str) -> None:
-    """Refuse a division by a constant zero, and a constant part whose value is not finite.
-
-    A part is constant when it needs neither the simulation nor the animal (`10^10^10`,
-    `1e308 * 1e308`); each is evaluated once, innermost first. Parts that depend on the
-    animal (`0.5 bw / 0`) are only checked for a zero divisor.
-
-    Raises:
-        ExprError: `division-by-zero` or `non-finite-number`.
-    """
-    seen: set[int] = set()
-    stack = [expr]
-    order: list[Expr] = []
-    while stack:
-        node = stack.pop()
-        if id(node) not in seen:
-            seen.add(id(node))
-            order.append(node)
-            stack.extend(node.args[:1] if node.op == "interp" else node.args)  # a table checks its points
-    with np.errstate(all="ignore"):
-        for node in reversed(order):
-            if node.op == "div" and _is_fixed(node.args[1]) and np.all(evaluate_constant(node.args[1]) == 0):
-                raise ExprError(
-                    "division-by-zero",
-                    f"in {text!r}: this divides by zero",
-                    "a divisor that is always zero is a mistake: check the number after '/'",
-                )
-            if node.op not in ("num", "unit") and _is_fixed(node) and node.type.kind != BOOL:
-                _need_finite(evaluate_constant(node), text)
-            if node.op == "call" and FUNCTIONS[node.value].domain is not None:
-                _need_in_domain(node, text)
-
-
-def _need_finite(value: np.ndarray, text: str) -> None:
-    """Refuse the value of a constant part of `text` when it is not finite (it overflowed)."""
-    if not np.all(np.isfinite(value)):
-        raise ExprError(
-            "non-finite-number",
-            f"in {text!r}: a constant part overflows: its value is not a finite number",
-            f"keep every value between -{sys.float_info.max:.3g} and {sys.float_info.max:.3g}",
-        )
-
-
-_SAMPLE_SCALE = units.Scale.of([0.01, 1.0, 100.0], [0.001, 1.0, 1000.0])
-"""Animals from a mouse's size to beyond an elephant's: a part that depends on the animal is
-refused only when it is wrong for every one of them."""
-
-
-def _need_in_domain(call: Expr, text: str) -> None:
-    """Refuse a constant argument outside its function's domain (`sqrt(-HP / g)`, `acos(2)`).
-
-    An argument that depends on the animal is refused when it is outside for every animal of
-    `_SAMPLE_SCALE`; one that reads rest lengths or the simulation is left to the runtime.
-    """
-    function = FUNCTIONS[call.value]
-    argument = call.args[0]
-    if function.domain is None or not argument.is_constant or _reads_rest(argument):
-        return
-    inside, words = function.domain
-    value = evaluate_constant(argument) if _is_fixed(argument) else compile_expr(argument, _SAMPLE_SCALE)({})
-    if not np.any(inside(value)):
-        raise ExprError(
-            "non-finite-number",
-            f"in {text!r}: {function.name}() is given a constant that is not {words}: its value is not a number",
-            "check the sign and the units of what it is given",
-        )
-
-
-def _need_finite_order(table: Expr, text: str) -> None:
-    """Refuse a table whose points are not finite or whose breakpoints decrease, for any animal
-    of `_SAMPLE_SCALE` (a repeat is a jump, allowed); tables reading rest lengths are left to
-    the runtime.
-
-    Raises:
-        ExprError: `non-finite-number`, `table-order`.
-    """
-    if _reads_rest(table):
-        return
-    with np.errstate(all="ignore"):
-        breakpoints, values = table_arrays(table, _SAMPLE_SCALE)
-    _need_finite(breakpoints, text)
-    _need_finite(values, text)
-    falls = np.nonzero(np.any(np.diff(breakpoints, axis=1) < 0, axis=0))[0]
-    if falls.size:
-        raise ExprError(
-            "table-order",
-            f"in {text!r}: the breakpoints of a table must not decrease, "
-            f"but breakpoint {falls[0] + 2} is below breakpoint {falls[0] + 1}",
-            "sort the table's points by their breakpoint (repeat a breakpoint for a jump)",
-        )
-
-
-def _is_literal(expr: Expr) -> bool:
-    """Whether a node is a number with a unit, or a vector of them (no division, nothing that
-    can overflow but what `_need_finite_order` finds)."""
-    return expr.op in ("num", "unit", "neg", "mul", "vec") and all(_is_literal(arg) for arg in expr.args)
-
-
-def _reads_rest(expr: Expr) -> bool:
-    """Whether an expression reads a rest length (known only with the animal's skeleton)."""
-    return (expr.op == "var" and str(expr.value).startswith(REST_PREFIX)) or any(_reads_rest(a) for a in expr.args)
-
-
-def _is_fixed(expr: Expr) -> bool:
-    """Whether a node's value is known without the simulation or the animal."""
-    return expr.is_constant and not expr.uses_scale
 
 
 def _list_text(value: list[Any]) -> str:
