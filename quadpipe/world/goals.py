@@ -9,6 +9,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from quadpipe.core.errors import Location, QuadpipeError
+from quadpipe.core.limits import MAX_TABLE_POINTS
 from quadpipe.core.yamlio import dotted
 from quadpipe.quantities.expressions import TIME_VARIABLE, ExprError, parse
 from quadpipe.world.loading import SceneSpec
@@ -138,7 +139,9 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
             if text
         ),
         "path_tangent": _tangent_text(timeline),
-        "path_speed": _steps_text([(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"),
+        "path_speed": _number_steps_text(
+            [(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"
+        ),
         "path_stand": _stand_text(timeline.stands(), ramp),
         **_look_texts(timeline.segments, ramp),
         **_pose_texts(timeline.segments, POSE_RAMP_NATURAL * natural_time),
@@ -168,8 +171,8 @@ def check_direction_length(name: str, parameters: dict[str, str], where: Locatio
                 "limit-exceeded",
                 f"the direction of {name} is too long to play: in its {key} expression, {error.message}",
                 where=where,
-                hint="give its path fewer points (a smooth path has 6 pieces between two points: try "
-                "`smooth: false`) or fewer beats, or split the shot in two",
+                hint="give it fewer beats, or split the shot in two (a path's points are tables of up to "
+                f"{MAX_TABLE_POINTS.value:g} points; a smooth path has 6 between two points, its tangent twice that)",
             ) from None
 
 
@@ -256,7 +259,7 @@ def _tangent_text(timeline: Timeline) -> str:
     return steps_text(directions)
 
 
-def _steps_text(values: Sequence[tuple[float, float]], unit: str) -> str:
+def _number_steps_text(values: Sequence[tuple[float, float]], unit: str) -> str:
     """A piecewise-constant value in time as text: `values[0]` then a step at each change."""
     return steps_text([(when, f"{number_text(value, DIRECTION_DIGITS)} {unit}") for when, value in values])
 
