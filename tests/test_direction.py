@@ -422,12 +422,16 @@ def test_a_bad_curve_file_is_located(tmp_path: Path, text: str, words: str) -> N
 
 
 def test_a_direction_too_long_to_play_is_located(tmp_path: Path) -> None:
-    points = [[f"{2 * k} HP", f"{k % 2} HP", 0] for k in range(64)]
-    beats = [{"to": k, "froude": 0.15} for k in range(1, 64)]
-    direction = write_direction(tmp_path, "dog", {"path": {"points": points, "smooth": True}, "beats": beats})
+    """A path's points are tables, without a length limit; each of 150 holds adds to the text
+    of its stands, over the expression length limit."""
+    points = [[f"{2 * k} HP", f"{k % 2} HP", 0] for k in range(151)]
+    beats = [beat for k in range(1, 151) for beat in ({"to": k, "froude": 0.15}, {"hold": "0.5 s"})]
+    direction = write_direction(tmp_path, "dog", {"path": {"points": points}, "beats": beats})
     with pytest.raises(QuadpipeError) as caught:
         played_timelines(direction)
-    assert f"{direction}:3:5: error limit-exceeded: the direction of dog is too long to play" in str(caught.value)
+    assert f"{direction}:3:5: error limit-exceeded: the direction of dog is too long to play: in its path_stand" in str(
+        caught.value
+    )
 
 
 FIGURE_EIGHT = [[0, 0, 0], ["3 HP", "3 HP", 0], ["6 HP", 0, 0], ["3 HP", "-3 HP", 0], [0, 0, 0]]
@@ -760,3 +764,42 @@ def test_a_direction_file_of_another_schema_version_is_located(tmp_path: Path) -
     with pytest.raises(QuadpipeError) as caught:
         load_direction(direction)
     assert f"{direction}:" in str(caught.value) and "error unsupported-schema" in str(caught.value)
+
+
+# --------------------------------------------------------------------------- long paths (tables)
+
+
+def s_curve(points: int) -> list[list]:
+    """An S-curve written out as points, as an animator's curve would be: 10 HP forward, one
+    swing of 1.5 HP to either side (bends of 2.4 HP radius at the tightest)."""
+    return [
+        [f"{10 * k / (points - 1):.4f} HP", f"{1.5 * math.sin(2 * math.pi * k / (points - 1)):.4f} HP", 0]
+        for k in range(points)
+    ]
+
+
+@pytest.mark.slow
+def test_a_smooth_path_of_forty_points_is_followed_at_a_walk(tmp_path: Path) -> None:
+    """Its 234 spline pieces are tables of the controller (over 20 points it was too long). The
+    dog starts facing 43 degrees right of the path: the first move (1.5 HP) brings it onto it."""
+    body = {"path": {"points": s_curve(40), "smooth": True}, "beats": [{"to": 6, "froude": 0.15}, {"to": 39, "froude": 0.15}]}  # fmt: skip
+    direction = write_direction(tmp_path, "dog", body)
+    report = played("dog", direction, None, shot_length("dog", direction))
+    assert report.lateral_rms_hp is not None and report.lateral_rms_hp <= LOOP_LATERAL_HP, format_direction(report)
+
+
+def test_a_path_of_five_hundred_points_loads_and_compiles(tmp_path: Path) -> None:
+    from quadpipe.controllers.language.compiler import compile_controller
+    from quadpipe.controllers.language.load import load_controller
+    from quadpipe.quantities.units import scale_for_animals
+    from quadpipe.sim.simulation import Simulation
+
+    direction = write_direction(
+        tmp_path, "dog", {"path": {"points": s_curve(500)}, "beats": [{"to": 499, "froude": 0.15}]}
+    )
+    setup = Simulation.build("dog", None, direction=direction).setup
+    (parameters,) = setup.directions.values()
+    animal = setup.placements[0].built.animal
+    compiled = compile_controller(load_controller("direct", parameters), scale_for_animals([animal]))
+    end = compiled.parameters["path_point"]({"t": np.array([setup.timelines["dog"].end])})[0]
+    assert end == pytest.approx([10 * animal.pelvis_height, 0.0, 0.0], abs=1e-3)

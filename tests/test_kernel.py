@@ -62,6 +62,7 @@ PROBES: dict[str, str] = {
     "comparisons": "(1 if 0.5 s < t <= 1.5 s else 0) + (1 if t > 1 s and not t >= 2 s or t < 0.2 s else 0)",
     "components": "[t / 1 s, 2, 3].x * [t / 1 s, 2, 3].y - [1, 2, t / 1 s].z",
     "sensor": "dot(tilt, [0, 0, 1]) / 1 m/s^2",
+    "interp": "interp(t, [0.5 s, 1 s, 1 s, 2 s], [0, 2, -1, 3]) + interp(t, [0 s, 2 s], [[1 HP, 0, 0], [0, 3 HP, 0]]).y / 1 m",
 }
 """One probe per function of the language (and per operator kind): a plain number that
 depends on the simulation (`t`, a cycle, a contact, a sensor), so it is not folded."""

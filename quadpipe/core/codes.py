@@ -172,6 +172,11 @@ GROUPS: tuple[CodeGroup, ...] = (
             "dimension-mismatch": "an expression mixing units that do not go together",
             "bad-point": "a body point with an unknown anchor (`.tip` instead of `.end`)",
             "unknown-leg": "a leg or group name that does not exist",
+            "table-lengths": "a table (`interp`) whose lists of breakpoints and values differ in length",
+            "table-size": "a table (`interp`) of fewer than 2 points",
+            "table-order": "a table (`interp`) whose breakpoints decrease",
+            "table-units": "a table (`interp`) whose breakpoints (or values) mix units",
+            "table-not-constant": "a table (`interp`) whose breakpoints or values read the simulation",
         },
     ),
     CodeGroup(

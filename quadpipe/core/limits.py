@@ -157,7 +157,25 @@ MAX_EXPRESSION_LENGTH = Limit(
     "characters",
     "split the expression into parameters",
 )
-"""Characters in one expression's text."""
+"""Characters in one expression's text, not counting the lists of its tables (`interp`), which
+`MAX_TABLE_POINTS` bounds instead: a path of hundreds of points is one short expression."""
+
+MAX_TABLE_POINTS = Limit(
+    "the table's size",
+    20_000,
+    "points",
+    "give the table (or the path) fewer points: resample it",
+)
+"""Points (breakpoints, and as many values) in one table of `interp(x, [x0, ...], [y0, ...])`."""
+
+MAX_TABLE_EXPRESSION_LENGTH = Limit(
+    "the expression's length with its tables",
+    2_000_000,
+    "characters",
+    "give its tables fewer points: resample them",
+)
+"""Characters in one expression's text, its tables included: a bound on the text read before its
+tables are measured (about 50 characters a point for the largest tables of `MAX_TABLE_POINTS`)."""
 
 # --------------------------------------------------------------------------- skeletons
 

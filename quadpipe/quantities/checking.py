@@ -9,8 +9,6 @@ inlined where they are used, so a checked expression is self-contained.
 from __future__ import annotations
 
 import ast
-import math
-import sys
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -22,6 +20,14 @@ from quadpipe.anatomy.roles import LEGS, PARENT, ROLES
 from quadpipe.core.errors import did_you_mean
 from quadpipe.core.limits import MAX_EXPRESSION_DEPTH
 from quadpipe.quantities import units
+from quadpipe.quantities.constants import (
+    NON_FINITE_WORDS,
+    finite_number,
+    is_literal,
+    need_finite,
+    need_finite_order,
+    refuse_bad_constants,
+)
 from quadpipe.quantities.evaluation import Compiled, compile_expr, evaluate_constant
 from quadpipe.quantities.functions import FUNCTIONS, LOCAL_HELP, LOCAL_NAMES, SPECIAL_ARGUMENT_FUNCTIONS
 from quadpipe.quantities.nodes import (
@@ -33,8 +39,8 @@ from quadpipe.quantities.nodes import (
     NUMBER,
     POINT_ANCHORS,
     POINT_TYPE,
-    REST_PREFIX,
     SCALAR,
+    TABLE_FUNCTION,
     TIME_VARIABLE,
     VECTOR,
     Expect,
@@ -94,6 +100,8 @@ class _Checker:
     def __init__(self, namespace: Namespace, text: str) -> None:
         self.ns = namespace
         self.text = text
+        self.units: dict[str, Expr] = {}
+        """The node of each unit a table's points use (one shared node per unit)."""
 
     def fail(self, code: str, message: str, hint: str | None = None) -> ExprError:
         return ExprError(code, f"in {self.text!r}: {message}", hint)
@@ -244,7 +252,7 @@ class _Checker:
             )
         with np.errstate(all="ignore"):
             value = evaluate_constant(exponent)
-        _need_finite(value, self.text)
+        need_finite(value, self.text)
         power = Fraction(float(value)).limit_denominator(1000)
         return Expr("pow", Type(SCALAR, base.type.dim**power), (base, Expr("num", NUMBER, value=float(power))))
 
@@ -307,11 +315,104 @@ class _Checker:
             raise self.fail("forbidden-syntax", f"{name}() takes no named arguments")
         if name in SPECIAL_ARGUMENT_FUNCTIONS:
             return self._named_argument_call(name, node.args)
+        if name == TABLE_FUNCTION:
+            return self._table(node.args)
         args = [self.check(arg) for arg in node.args]
         for arg in args:
             if arg.type.kind == BOOL:
                 raise self.fail("wrong-type", f"{name}() takes values, got a condition")
         return Expr("call", FUNCTIONS[name].result([arg.type for arg in args], self.text), tuple(args), name)
+
+    def _table(self, args: list[ast.expr]) -> Expr:
+        """`interp(x, [x0, x1, ...], [y0, y1, ...])`: a table node, `interp`, whose arguments are
+        x, the breakpoints, then the values, and whose value is the number of breakpoints."""
+        hint = f"see `{FUNCTIONS[TABLE_FUNCTION].signature}`"
+        if len(args) != 3:
+            raise self.fail("wrong-arguments", f"{TABLE_FUNCTION}() takes 3 arguments, got {len(args)}", hint)
+        if not (isinstance(args[1], ast.List) and isinstance(args[2], ast.List)):
+            raise self.fail(
+                "wrong-arguments", f"{TABLE_FUNCTION}() takes its breakpoints and its values as lists [...]", hint
+            )
+        x = self.check(args[0])
+        breakpoints, values = self._table_list(args[1], "breakpoints"), self._table_list(args[2], "values")
+        if len(breakpoints) != len(values):
+            raise self.fail(
+                "table-lengths",
+                f"the table has {len(breakpoints)} breakpoints but {len(values)} values",
+                "give one value per breakpoint",
+            )
+        if len(breakpoints) < 2:
+            raise self.fail(
+                "table-size", f"a table needs at least 2 points, got {len(breakpoints)}", "a constant needs no table"
+            )
+        if x.type.kind != SCALAR or breakpoints[0].type.kind != SCALAR:
+            raise self.fail(
+                "wrong-type",
+                f"a table is read at a number, with numbers as breakpoints, got {x.type.describe()} "
+                f"and {breakpoints[0].type.describe()}",
+                hint,
+            )
+        if x.type.dim != breakpoints[0].type.dim:
+            raise self.fail(
+                "dimension-mismatch",
+                f"a table whose breakpoints are {units.dimension_name(breakpoints[0].type.dim, plural=True)} "
+                f"is read at {x.type.describe()}",
+                "give the breakpoints the unit of the first argument (`interp(t, [0 s, 2 s], ...)`)",
+            )
+        table = Expr("interp", values[0].type, (x, *breakpoints, *values), len(breakpoints))
+        need_finite_order(table, self.text)
+        return table
+
+    def _table_list(self, node: ast.List, what: str) -> list[Expr]:
+        """The checked items of one list of a table: constants of one type (a plain 0 takes the
+        unit of the others, as in vectors)."""
+        items = _zeros_take_unit([self._table_item(item) for item in node.elts])
+        for item in items:
+            if item.type.kind == BOOL:
+                raise self.fail("wrong-type", f"the {what} of a table are values, got a condition")
+            if item.needs:
+                raise self.fail(
+                    "table-not-constant",
+                    f"the {what} of a table are constants, but one reads the simulation ({sorted(item.needs)[0]})",
+                    "a table holds numbers with units; compute with its result instead",
+                )
+            if not is_literal(item):
+                refuse_bad_constants(item, self.text)
+        other = next((item.type for item in items if item.type != items[0].type), None)
+        if other is not None:
+            listed = " and ".join(sorted((items[0].type.describe(), other.describe())))
+            raise self.fail(
+                "table-units", f"the {what} of a table mix {listed}", f"give all the {what} one kind of unit"
+            )
+        return items
+
+    def _table_item(self, node: ast.expr) -> Expr:
+        """One point of a table: a number with a unit (`-1.5 m`), or a vector of them, read
+        straight from its syntax (a table may have thousands), sharing each unit's node; any
+        other value checked as usual."""
+        if isinstance(node, ast.List) and len(node.elts) == 3:
+            items = [self._table_item(item) for item in node.elts]
+            if items[0].type is items[1].type is items[2].type and items[0].type.kind == SCALAR:
+                return Expr("vec", Type(VECTOR, items[0].type.dim), tuple(items))
+            return make_vector(items, self.text)
+        sign, inner = (
+            (-1.0, node.operand) if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub) else (1.0, node)
+        )
+        number = inner.left if isinstance(inner, ast.BinOp) and isinstance(inner.op, ast.Mult) else inner
+        unit = inner.right if isinstance(inner, ast.BinOp) and isinstance(inner.op, ast.Mult) else None
+        if not isinstance(number, ast.Constant) or not (unit is None or isinstance(unit, ast.Name)):
+            return self.check(node)
+        if unit is not None and (
+            unit.id not in units.UNITS or unit.id in self.ns.parameters or unit.id in self.ns.locals
+        ):
+            return self.check(node)
+        value = Expr("num", NUMBER, value=sign * finite_number(number.value, self.text))
+        if unit is None:
+            return value
+        if unit.id not in self.units:
+            self.units[unit.id] = self._name(unit)
+        scaled = self.units[unit.id]
+        return Expr("mul", scaled.type, (value, scaled))
 
     def _named_argument_call(self, name: str, args: list[ast.expr]) -> Expr:
         if len(args) != 1 or not isinstance(args[0], ast.Name):
@@ -412,112 +513,17 @@ def check(value: Any, namespace: Namespace) -> Expr:
     if not isinstance(value, str):
         raise ExprError("wrong-type", f"expected a value, got {type(value).__name__}")
     node = _Checker(namespace, value).check(parse(value))
-    depth = nesting_depth(node, lambda expr: expr.args)
+    depth = nesting_depth(node, _nested)
     if depth > MAX_EXPRESSION_DEPTH.value:
         raise limit_error(MAX_EXPRESSION_DEPTH, depth)
     refuse_bad_constants(node, value)
     return Expr(node.op, node.type, node.args, node.value, text=value)
 
 
-NON_FINITE_WORDS = frozenset({"nan", "inf", "infinity"})
-"""Names that read as numbers which are not finite (`--set froude=nan`, `inf * m/s`)."""
-
-
-def finite_number(value: Any, text: str) -> float:
-    """A literal number as a float; infinite or NaN ones (`1e309`, `.inf`, `.nan`) are refused.
-
-    Raises:
-        ExprError: `non-finite-number`.
-    """
-    try:
-        number = float(value)
-    except OverflowError:
-        number = math.inf
-    if not math.isfinite(number):
-        raise ExprError(
-            "non-finite-number",
-            f"{text if len(text) <= 40 else text[:20] + '...' + text[-8:]!r} is not a finite number",
-            f"write a number between -{sys.float_info.max:.3g} and {sys.float_info.max:.3g}",
-        )
-    return number
-
-
-def refuse_bad_constants(expr: Expr, text: str) -> None:
-    """Refuse a division by a constant zero, and a constant part whose value is not finite.
-
-    A part is constant when it needs neither the simulation nor the animal (`10^10^10`,
-    `1e308 * 1e308`); each is evaluated once, innermost first. Parts that depend on the
-    animal (`0.5 bw / 0`) are only checked for a zero divisor.
-
-    Raises:
-        ExprError: `division-by-zero` or `non-finite-number`.
-    """
-    seen: set[int] = set()
-    stack = [expr]
-    order: list[Expr] = []
-    while stack:
-        node = stack.pop()
-        if id(node) not in seen:
-            seen.add(id(node))
-            order.append(node)
-            stack.extend(node.args)
-    with np.errstate(all="ignore"):
-        for node in reversed(order):
-            if node.op == "div" and _is_fixed(node.args[1]) and np.all(evaluate_constant(node.args[1]) == 0):
-                raise ExprError(
-                    "division-by-zero",
-                    f"in {text!r}: this divides by zero",
-                    "a divisor that is always zero is a mistake: check the number after '/'",
-                )
-            if node.op not in ("num", "unit") and _is_fixed(node) and node.type.kind != BOOL:
-                _need_finite(evaluate_constant(node), text)
-            if node.op == "call" and FUNCTIONS[node.value].domain is not None:
-                _need_in_domain(node, text)
-
-
-def _need_finite(value: np.ndarray, text: str) -> None:
-    """Refuse the value of a constant part of `text` when it is not finite (it overflowed)."""
-    if not np.all(np.isfinite(value)):
-        raise ExprError(
-            "non-finite-number",
-            f"in {text!r}: a constant part overflows: its value is not a finite number",
-            f"keep every value between -{sys.float_info.max:.3g} and {sys.float_info.max:.3g}",
-        )
-
-
-_SAMPLE_SCALE = units.Scale.of([0.01, 1.0, 100.0], [0.001, 1.0, 1000.0])
-"""Animals from a mouse's size to beyond an elephant's: a part that depends on the animal is
-refused only when it is wrong for every one of them."""
-
-
-def _need_in_domain(call: Expr, text: str) -> None:
-    """Refuse a constant argument outside its function's domain (`sqrt(-HP / g)`, `acos(2)`).
-
-    An argument that depends on the animal is refused when it is outside for every animal of
-    `_SAMPLE_SCALE`; one that reads rest lengths or the simulation is left to the runtime.
-    """
-    function = FUNCTIONS[call.value]
-    argument = call.args[0]
-    if function.domain is None or not argument.is_constant or _reads_rest(argument):
-        return
-    inside, words = function.domain
-    value = evaluate_constant(argument) if _is_fixed(argument) else compile_expr(argument, _SAMPLE_SCALE)({})
-    if not np.any(inside(value)):
-        raise ExprError(
-            "non-finite-number",
-            f"in {text!r}: {function.name}() is given a constant that is not {words}: its value is not a number",
-            "check the sign and the units of what it is given",
-        )
-
-
-def _reads_rest(expr: Expr) -> bool:
-    """Whether an expression reads a rest length (known only with the animal's skeleton)."""
-    return (expr.op == "var" and str(expr.value).startswith(REST_PREFIX)) or any(_reads_rest(a) for a in expr.args)
-
-
-def _is_fixed(expr: Expr) -> bool:
-    """Whether a node's value is known without the simulation or the animal."""
-    return expr.is_constant and not expr.uses_scale
+def _nested(expr: Expr) -> tuple[Expr, ...]:
+    """The nodes inside a node, for its nesting depth: a table's are its x only (its points are
+    numbers with units, a few levels deep, and there may be thousands)."""
+    return expr.args[:1] if expr.op == "interp" else expr.args
 
 
 def _list_text(value: list[Any]) -> str:

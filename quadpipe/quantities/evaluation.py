@@ -22,13 +22,14 @@ always zero, and constant parts that overflow, are refused when the expression i
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from quadpipe.quantities import units
-from quadpipe.quantities.functions import FUNCTIONS
+from quadpipe.quantities.functions import FUNCTIONS, table_interp
 from quadpipe.quantities.nodes import BOOL, HEADING_FRAME_KEY, REST_PREFIX, SCALAR, VECTOR, Expr, Type
 
 Env = Mapping[str, np.ndarray]
@@ -109,6 +110,9 @@ def _build_node(expr: Expr, scale: units.Scale, n: int, built: _Built) -> Callab
         return lambda env: unit_value
     if op == "var":
         return _build_var(expr, scale, n)
+    if op == "interp":
+        x, (breakpoints, values) = _build(expr.args[0], scale, built), table_arrays(expr, scale, built)
+        return lambda env: table_interp(x(env), breakpoints, values)
     args = [_build(arg, scale, built) for arg in expr.args]
     types = [arg.type for arg in expr.args]
     if op == "call":
@@ -119,6 +123,53 @@ def _build_node(expr: Expr, scale: units.Scale, n: int, built: _Built) -> Callab
         (vector,), index = args, expr.value
         return lambda env: vector(env)[..., index]
     return _OPERATORS[op](args, types)
+
+
+def table_arrays(expr: Expr, scale: units.Scale, built: _Built | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The breakpoints (n, m) and the values ((n, m) or (n, m, 3)) of a table node (`interp`,
+    whose arguments are x, the m breakpoints and the m values, all constants) for the animals
+    of `scale`."""
+    kept = _TABLES.setdefault(expr, {})
+    if id(scale) not in kept:
+        built = {} if built is None else built
+        columns = [_constant_value(arg, scale, built) for arg in expr.args[1:]]
+        kept[id(scale)] = (scale, np.stack(columns[: expr.value], axis=1), np.stack(columns[expr.value :], axis=1))
+    return kept[id(scale)][1:]
+
+
+_TABLES: weakref.WeakKeyDictionary[Expr, dict[int, tuple[units.Scale, np.ndarray, np.ndarray]]] = (
+    weakref.WeakKeyDictionary()
+)
+"""The arrays of each table node, by scale (`table_arrays`): a path's table is compiled into
+every value that uses it, and each of its thousands of points is folded once per scale (the
+scale is kept with them, so that its `id` is not reused while they are)."""
+
+
+def _constant_value(expr: Expr, scale: units.Scale, built: _Built) -> np.ndarray:
+    """The value of a constant node for the animals of `scale`, (n,) or (n, 3): numbers with
+    units (and vectors of them) directly, a table's thousands of points at a few microseconds
+    each; any other node through `_build`."""
+    if expr.op == "num":
+        return np.full(scale.n, expr.value)
+    if expr.op == "unit":
+        return scale.unit_value(units.UNITS[expr.value])
+    if expr.op == "vec":
+        return np.stack([_constant_value(arg, scale, built) for arg in expr.args], axis=-1)
+    if expr.op == "neg":
+        return -_constant_value(expr.args[0], scale, built)
+    if expr.op == "mul" and expr.args[0].type.kind == expr.args[1].type.kind == SCALAR:
+        return _constant_value(expr.args[0], scale, built) * _constant_value(expr.args[1], scale, built)
+    return np.broadcast_to(_build(expr, scale, built)({}), _shape(expr.type, scale.n))
+
+
+def table_rows(expr: Expr, scale: units.Scale) -> tuple[np.ndarray, np.ndarray]:
+    """The breakpoints and the values of a table node as rows of registers, (m, n, 3) each (a
+    number in all three components): what the kernel reads (see `lowering`)."""
+    breakpoints, values = table_arrays(expr, scale)
+    values = values if values.ndim == 3 else np.repeat(values[..., None], 3, axis=2)
+    return np.ascontiguousarray(np.repeat(breakpoints.T[..., None], 3, axis=2)), np.ascontiguousarray(
+        values.transpose(1, 0, 2)
+    )
 
 
 def _build_var(expr: Expr, scale: units.Scale, n: int) -> Callable[[Env], np.ndarray]:

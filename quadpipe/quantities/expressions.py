@@ -31,7 +31,7 @@ from quadpipe.quantities.checking import (
     make_vector,
     resolve_point_name,
 )
-from quadpipe.quantities.evaluation import Compiled, Env, compile_expr, evaluate_constant
+from quadpipe.quantities.evaluation import Compiled, Env, compile_expr, evaluate_constant, table_rows
 from quadpipe.quantities.functions import FUNCTIONS, LOCAL_HELP, LOCAL_NAMES, SPECIAL_ARGUMENT_FUNCTIONS, Function
 from quadpipe.quantities.nodes import (
     BOOL,
@@ -98,4 +98,5 @@ __all__ = [
     "resolve_point_name",
     "rest_distance_key",
     "rewrite",
+    "table_rows",
 ]

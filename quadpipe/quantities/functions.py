@@ -14,7 +14,18 @@ from fractions import Fraction
 import numpy as np
 
 from quadpipe.quantities import units
-from quadpipe.quantities.nodes import BOOL, CONDITION, NUMBER, SCALAR, VECTOR, ZERO_NORM, Expect, ExprError, Type
+from quadpipe.quantities.nodes import (
+    BOOL,
+    CONDITION,
+    NUMBER,
+    SCALAR,
+    TABLE_FUNCTION,
+    VECTOR,
+    ZERO_NORM,
+    Expect,
+    ExprError,
+    Type,
+)
 
 
 @dataclass(frozen=True)
@@ -210,6 +221,36 @@ def _horizontal(v: np.ndarray) -> np.ndarray:
     return out
 
 
+def table_interp(x: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """A table read at x, for each animal: linear between its breakpoints, held at its ends.
+
+    Args:
+        x: (n,) where to read it.
+        xs: (n, m) breakpoints, not decreasing; a repeated breakpoint is a jump, to the value
+            of its last repeat.
+        ys: (n, m) values, or (n, m, 3) vector values.
+
+    Returns:
+        (n,) or (n, 3): the values at x (NaN where x is NaN), as the kernel computes them.
+    """
+    out = np.empty((len(x), *ys.shape[2:]))
+    for i in range(len(x)):
+        j = int(np.searchsorted(xs[i], x[i], side="right")) - 1
+        if np.isnan(x[i]):
+            out[i] = np.nan
+        elif j < 0 or j >= xs.shape[1] - 1:
+            out[i] = ys[i, min(max(j, 0), xs.shape[1] - 1)]
+        else:
+            u = (x[i] - xs[i, j]) / (xs[i, j + 1] - xs[i, j])
+            out[i] = ys[i, j] + u * (ys[i, j + 1] - ys[i, j])
+    return out
+
+
+def _table_rule(types: list[Type], text: str) -> Type:
+    """The result of a table: its values' type (the checks are `checking._Checker._table`)."""
+    return types[-1]
+
+
 def _mix_impl(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
     w = w[..., None] if a.ndim > w.ndim else w
     return a + (b - a) * w
@@ -387,6 +428,15 @@ FUNCTIONS: dict[str, Function] = {
             None,
         ),
         Function(
+            TABLE_FUNCTION,
+            "interp(x, [x0, x1, ...], [y0, y1, ...])",
+            "a table: y0 at x0, y1 at x1, ..., straight lines between, y0 before x0 and the last y after the last x; "
+            "the x values (breakpoints) are constants in x's unit, not decreasing (a repeated one is a jump), the "
+            "y values constants of one unit, numbers or vectors (`interp(t, [0 s, 2 s], [0 m/s, 1 m/s])`)",
+            _table_rule,
+            None,
+        ),
+        Function(
             "phase",
             "phase(cycle) -> number",
             "where a cycle element is in its period, 0 to 1",
@@ -403,7 +453,8 @@ FUNCTIONS: dict[str, Function] = {
     )
 }
 """Every callable function; `phase` and `contact` read the env directly (their argument is a
-name), `heading` and `froude_speed` are compiled specially."""
+name), `heading` and `froude_speed` are compiled specially, and `interp` is checked as a table
+(an `interp` node; see `table_interp`)."""
 
 SPECIAL_ARGUMENT_FUNCTIONS = ("phase", "contact")
 """Functions whose argument is a name (a cycle, a leg), not a value."""

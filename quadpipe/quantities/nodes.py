@@ -38,6 +38,10 @@ CONSTANTS: dict[str, float] = {"pi": math.pi}
 TIME_VARIABLE = "t"
 """The variable holding the time since the controller started."""
 
+TABLE_FUNCTION = "interp"
+"""The function reading a table: `interp(x, [x0, x1, ...], [y0, y1, ...])` (its lists are
+tables, of any length; see `checking.py` and `parsing.table_lists`)."""
+
 ZERO_NORM = 1e-12
 """Vectors shorter than this have no direction: `normalize` returns zero for them."""
 
@@ -61,17 +65,18 @@ NodeT = TypeVar("NodeT")
 
 
 def nesting_depth(root: NodeT, children: Callable[[NodeT], Sequence[NodeT]]) -> int:
-    """Levels of a tree (1 for a leaf), without recursion; shared subtrees are measured once."""
+    """Levels of a tree (1 for a leaf), without recursion, asking each node for its children
+    once (a table's thousands of points are many nodes); shared subtrees are measured once."""
     depth: dict[int, int] = {}
-    stack = [root]
+    stack: list[tuple[NodeT, Sequence[NodeT] | None]] = [(root, None)]
     while stack:
-        node = stack[-1]
-        pending = [child for child in children(node) if id(child) not in depth]
-        if pending:
-            stack.extend(pending)
-            continue
-        stack.pop()
-        depth[id(node)] = 1 + max((depth[id(child)] for child in children(node)), default=0)
+        node, kids = stack.pop()
+        if kids is not None:
+            depth[id(node)] = 1 + max((depth[id(kid)] for kid in kids), default=0)
+        elif id(node) not in depth:
+            kids = children(node)
+            stack.append((node, kids))
+            stack.extend((kid, None) for kid in kids if id(kid) not in depth)
     return depth[id(root)]
 
 

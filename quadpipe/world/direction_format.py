@@ -23,8 +23,10 @@ ANGLE = fields.with_example(fields.ANGLE, "180 deg")
 POINT = fields.with_example(fields.POINT, "[4 HP, 0, 0]")
 SPEED = Expect(SCALAR, (units.VELOCITY,), "velocity", "froude_speed(0.15)")
 TIME = Expect(SCALAR, (units.TIME,), "time", "6 s")
-MAX_PATH_POINTS = 64
-"""Most points one path may have (each becomes terms of the controller's expressions)."""
+MAX_PATH_POINTS = 1000
+"""Most points one path may have (an animator's curve has 50 to 500; each becomes a few points
+of the controller's tables, up to 6 for a smooth path, twice that in its tangent's: see
+`MAX_TABLE_POINTS`)."""
 
 
 class _Model(BaseModel):

@@ -9,9 +9,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from quadpipe.core.errors import Location, QuadpipeError
-from quadpipe.core.limits import MAX_EXPRESSION_LENGTH
+from quadpipe.core.limits import MAX_TABLE_POINTS
 from quadpipe.core.yamlio import dotted
-from quadpipe.quantities.expressions import TIME_VARIABLE
+from quadpipe.quantities.expressions import TIME_VARIABLE, ExprError, parse
 from quadpipe.world.loading import SceneSpec
 from quadpipe.world.timeline import Segment, Timeline
 from quadpipe.world.values import Values
@@ -37,17 +37,30 @@ def goal_text(scene: SceneSpec, values: Values, name: str) -> str:
 
 
 def goal_expression(waypoints: Sequence[tuple[float, np.ndarray]], digits: int = 10) -> str:
-    """A piecewise-linear point in time as controller-language text (metres, `t` in seconds).
+    """A piecewise-linear point in time as controller-language text (metres, `t` in seconds):
+    a table of the waypoints (`interp`), held at the first before its time and at the last
+    after its time; the point itself when there is one."""
+    if len(waypoints) == 1:
+        return vector_text(waypoints[0][1], digits)
+    return table_text([when for when, _ in waypoints], [vector_text(point, digits) for _, point in waypoints], digits)
 
-    The point is the first waypoint plus, for each segment, its displacement times the
-    fraction of the segment elapsed: `clamp((t - t0) / (t1 - t0), 0, 1)`.
-    """
-    terms = [vector_text(waypoints[0][1], digits)]
-    for (t0, p0), (t1, p1) in zip(waypoints, waypoints[1:]):
-        terms.append(
-            f"{vector_text(p1 - p0, digits)} * clamp(({TIME_VARIABLE} - {number_text(t0, digits)} s) / ({number_text(t1 - t0, digits)} s), 0, 1)"
-        )
-    return balanced_sum(terms)
+
+def table_text(times: Sequence[float], values: Sequence[str], digits: int) -> str:
+    """A table in time as text: `interp(t, [t0 s, t1 s, ...], [v0, v1, ...])` (times not
+    decreasing; a repeated time is a jump)."""
+    breakpoints = ", ".join(f"{number_text(when, digits)} s" for when in times)
+    return f"interp({TIME_VARIABLE}, [{breakpoints}], [{', '.join(values)}])"
+
+
+def steps_text(values: Sequence[tuple[float, str]]) -> str:
+    """A piecewise-constant value in time as text: the first value, then each next one from its
+    time on (a table whose times repeat at each change; the first value when none changes)."""
+    changes = [(when, after) for (_, before), (when, after) in zip(values, values[1:]) if after != before]
+    if not changes:
+        return values[0][1]
+    doubled = [value for _, value in changes for _ in range(2)]
+    times = [when for when, _ in changes for _ in range(2)]
+    return table_text(times, [values[0][1], *doubled[:-1]], DIRECTION_DIGITS)
 
 
 def balanced_sum(terms: Sequence[str]) -> str:
@@ -126,7 +139,9 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
             if text
         ),
         "path_tangent": _tangent_text(timeline),
-        "path_speed": _steps_text([(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"),
+        "path_speed": _number_steps_text(
+            [(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"
+        ),
         "path_stand": _stand_text(timeline.stands(), ramp),
         **_look_texts(timeline.segments, ramp),
         **_pose_texts(timeline.segments, POSE_RAMP_NATURAL * natural_time),
@@ -139,23 +154,26 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
 
 
 def check_direction_length(name: str, parameters: dict[str, str], where: Location) -> None:
-    """Refuse a direction whose expressions are too long for the controller language, at the
-    direction (rather than at the expression the controller cannot read).
+    """Refuse a direction whose expressions are over the controller language's limits (a
+    table's points, the length outside tables), at the direction rather than at the
+    expression the controller cannot read (`parse` keeps what it read for the controller).
 
     Raises:
-        QuadpipeError: `limit-exceeded`, naming the longest expression.
+        QuadpipeError: `limit-exceeded`, naming the expression.
     """
-    longest = max(parameters, key=lambda key: len(parameters[key]))
-    length = len(parameters[longest])
-    if length > MAX_EXPRESSION_LENGTH.value:
-        raise QuadpipeError.single(
-            "limit-exceeded",
-            f"the direction of {name} is too long to play: its {longest} expression would be {length} "
-            f"characters, over the limit of {MAX_EXPRESSION_LENGTH.value:g}",
-            where=where,
-            hint="give its path fewer points (a smooth path has 6 pieces between two points: try `smooth: false`) "
-            "or fewer beats, or split the shot in two",
-        )
+    for key, text in parameters.items():
+        try:
+            parse(text)
+        except ExprError as error:
+            if error.code != "limit-exceeded":
+                raise
+            raise QuadpipeError.single(
+                "limit-exceeded",
+                f"the direction of {name} is too long to play: in its {key} expression, {error.message}",
+                where=where,
+                hint="give it fewer beats, or split the shot in two (a path's points are tables of up to "
+                f"{MAX_TABLE_POINTS.value:g} points; a smooth path has 6 between two points, its tangent twice that)",
+            ) from None
 
 
 def timed_points_text(timeline: Timeline, ahead: float) -> str:
@@ -175,20 +193,21 @@ def timed_points_text(timeline: Timeline, ahead: float) -> str:
         if s1 > s0:
             inside = marks[(marks > s0) & (marks < s1)]
             times |= set(t0 + (inside - s0) / (s1 - s0) * (t1 - t0))
-    points = [(t, _ahead_point(timeline, turns, t, ahead)) for t in sorted(times)]
-    return goal_expression(points, DIRECTION_DIGITS)
+    ordered = np.array(sorted(times))
+    return goal_expression(list(zip(ordered, _ahead_points(timeline, turns, ordered, ahead))), DIRECTION_DIGITS)
 
 
-def _ahead_point(timeline: Timeline, turns: Sequence[Segment], when: float, ahead: float) -> np.ndarray:
-    """The point `ahead` metres along the path from the reference at time `when`, [x, y, 0]
-    metres: straight on past the mark of a turn not yet done (see `timed_points_text`)."""
-    distance = float(timeline.distance_at(np.array([when]))[0])
-    turn = next((seg for seg in turns if when <= seg.end and distance + ahead > seg.s0 >= distance), None)
-    if turn is None:
-        x, y = timeline.point_at(np.array([distance + ahead]))[0]
-    else:
-        x, y = timeline.point_at(np.array([turn.s0]))[0] + (distance + ahead - turn.s0) * timeline.heading_at(turn.s0)
-    return np.array([x, y, 0.0])
+def _ahead_points(timeline: Timeline, turns: Sequence[Segment], times: np.ndarray, ahead: float) -> np.ndarray:
+    """The points `ahead` metres along the path from the reference at `times`, (k, 3) metres
+    with z = 0: straight on past the mark of a turn not yet done (the first such turn; see
+    `timed_points_text`)."""
+    distances = timeline.distance_at(times)
+    points = timeline.point_at(distances + ahead)
+    for turn in reversed(turns):
+        before = (times <= turn.end) & (distances + ahead > turn.s0) & (turn.s0 >= distances)
+        past = (distances[before] + ahead - turn.s0)[:, None] * timeline.heading_at(turn.s0)
+        points[before] = timeline.point_at(np.array([turn.s0]))[0] + past
+    return np.column_stack([points, np.zeros(len(points))])
 
 
 def _turns_text(timeline: Timeline, ahead: float) -> str:
@@ -229,31 +248,20 @@ def _tangent_text(timeline: Timeline) -> str:
     units = pieces / np.maximum(np.linalg.norm(pieces, axis=1, keepdims=True), 1e-12)
     knots = timeline.knots()
     knot_t, knot_s = np.array([k[0] for k in knots]), np.array([k[1] for k in knots])
-    changes = []
+    directions = [(0.0, _plain_vector(units[0]))]
     for k in range(1, len(units)):
         passed = np.nonzero(knot_s >= lengths[k])[0]
         if len(passed) == 0:
             break
         j = passed[0]
         when = knot_t[0] if j == 0 else np.interp(lengths[k], knot_s[j - 1 : j + 1], knot_t[j - 1 : j + 1])
-        changes.append((float(when), units[k] - units[k - 1]))
-    terms = [_plain_vector(units[0])] + [
-        f"{_plain_vector(change)} * step({number_text(when, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
-        for when, change in changes
-        if np.abs(change).max() > 1e-9
-    ]
-    return balanced_sum(terms)
+        directions.append((float(when), _plain_vector(units[k])))
+    return steps_text(directions)
 
 
-def _steps_text(values: Sequence[tuple[float, float]], unit: str) -> str:
+def _number_steps_text(values: Sequence[tuple[float, float]], unit: str) -> str:
     """A piecewise-constant value in time as text: `values[0]` then a step at each change."""
-    terms = [f"{number_text(values[0][1], DIRECTION_DIGITS)} {unit}"]
-    for (_, before), (when, after) in zip(values, values[1:]):
-        if after != before:
-            terms.append(
-                f"{number_text(after - before, DIRECTION_DIGITS)} {unit} * step({number_text(when, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
-            )
-    return balanced_sum(terms)
+    return steps_text([(when, f"{number_text(value, DIRECTION_DIGITS)} {unit}") for when, value in values])
 
 
 def _stand_text(stands: Sequence[tuple[float, float]], ramp: float) -> str:
@@ -289,14 +297,11 @@ def _look_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:
     """`path_look` (each looking beat's point from its start, held until the next's) and
     `path_looking` (1 while a beat looks at a point, ramping over `ramp` seconds)."""
     looks = [(seg.start, np.array(seg.look)) for seg in segments if seg.look is not None]
-    point = looks[0][1] if looks else np.zeros(3)
-    terms = [vector_text(point, DIRECTION_DIGITS)] + [
-        f"{vector_text(after - before, DIRECTION_DIGITS)} * step({number_text(when, DIRECTION_DIGITS)} s, {TIME_VARIABLE})"
-        for (_, before), (when, after) in zip(looks, looks[1:])
-        if np.any(after != before)
+    points = [(when, vector_text(point, DIRECTION_DIGITS)) for when, point in looks] or [
+        (0.0, vector_text(np.zeros(3)))
     ]
     looking = [(seg.start, float(seg.look is not None)) for seg in segments] or [(0.0, 0.0)]
-    return {"path_look": balanced_sum(terms), "path_looking": _ramps_text([(0.0, 0.0), *looking], ramp)}
+    return {"path_look": steps_text(points), "path_looking": _ramps_text([(0.0, 0.0), *looking], ramp)}
 
 
 def _pose_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:

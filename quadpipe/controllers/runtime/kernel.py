@@ -30,15 +30,13 @@ One call of `run` does, in order:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from typing import Any
+from collections.abc import Sequence
 
 import numba
 import numpy as np
-from numba import types
-from numba.extending import intrinsic
 
 from quadpipe.controllers.runtime.mjlib import mj_ray
+from quadpipe.controllers.runtime.views import ints1, ints2, reals1, reals2, reals3
 
 ZERO_NORM = 1e-12
 """Vectors shorter than this have no direction (as in `expressions.ZERO_NORM`)."""
@@ -74,6 +72,9 @@ NEG, NOT, SIN, COS, TAN, ASIN, ACOS, ATAN, SQRT, EXP, LOG, ABS, SIGN, WRAP = ran
 CLAMP, SMOOTHSTEP, MIX, SELECT, LEG_SWEEP, LEG_LIFT = 30, 31, 32, 33, 34, 35
 # Vector ops (dst, a, b are registers; COMP's b is the component index).
 VEC, COMP, NORM, NORMALIZE, DOT, CROSS, ANGLE, HORIZONTAL = 40, 41, 42, 43, 44, 45, 46, 47
+# Tables: INTERP(dst, a = x, b = first of the breakpoints' registers, c = first of the values',
+# e = their number): the table at x (see `_interp`).
+INTERP = 48
 # Frames: HEADING(dst, a); BODYROT(dst, a, b = row of `frame_body`).
 HEADING, BODYROT = 50, 51
 # Simulation reads: POINT/VELOCITY(dst, a = row of `point_body`); CONTACT(dst, a = leg);
@@ -148,45 +149,6 @@ def address_table(rows: Sequence[tuple[int, int, int, int]]) -> np.ndarray:
     the order `INTEGER_ARRAYS`, `REAL_ARRAYS`, `MUJOCO_ARRAYS`, then the model and the data
     (`(address, 0, 0, 0)`). The caller keeps every array alive while the kernel runs on the table."""
     return np.array(rows, dtype=np.int64).reshape(-1, TABLE_WIDTH)
-
-
-def _pointer_typing(typingctx: Any, address: Any, kind: Any) -> tuple[Any, Callable[..., Any]]:
-    """Numba's typing of `_pointer`: (an integer, a number class) -> a pointer to that number."""
-    target = types.CPointer(kind.instance_type)
-
-    def codegen(context: Any, builder: Any, signature: Any, args: Sequence[Any]) -> Any:
-        return builder.inttoptr(args[0], context.get_value_type(target))
-
-    return target(address, kind), codegen
-
-
-_pointer: Any = intrinsic(_pointer_typing)
-"""`_pointer(address, numba.float64)`: an integer address as a typed pointer, for `numba.carray`."""
-
-
-@numba.njit(cache=True)
-def _ints1(table: np.ndarray, row: int) -> np.ndarray:
-    return numba.carray(_pointer(table[row, 0], numba.int64), table[row, 1] * table[row, 2] * table[row, 3])
-
-
-@numba.njit(cache=True)
-def _ints2(table: np.ndarray, row: int) -> np.ndarray:
-    return numba.carray(_pointer(table[row, 0], numba.int64), (table[row, 1], table[row, 2] * table[row, 3]))
-
-
-@numba.njit(cache=True)
-def _reals1(table: np.ndarray, row: int) -> np.ndarray:
-    return numba.carray(_pointer(table[row, 0], numba.float64), table[row, 1] * table[row, 2] * table[row, 3])
-
-
-@numba.njit(cache=True)
-def _reals2(table: np.ndarray, row: int) -> np.ndarray:
-    return numba.carray(_pointer(table[row, 0], numba.float64), (table[row, 1], table[row, 2] * table[row, 3]))
-
-
-@numba.njit(cache=True)
-def _reals3(table: np.ndarray, row: int) -> np.ndarray:
-    return numba.carray(_pointer(table[row, 0], numba.float64), (table[row, 1], table[row, 2], table[row, 3]))
 
 
 @numba.njit(cache=True)
@@ -288,6 +250,30 @@ def _elementwise(op: int, x: float, y: float, z: float) -> float:
             return 0.0
         return math.sin(math.pi * min(max((x - duty) / (1.0 - duty), 0.0), 1.0))
     return math.nan
+
+
+@numba.njit(cache=True)
+def _interp(reg: np.ndarray, dst: int, i: int, x: float, first: int, values: int, count: int) -> None:
+    """Animal i's table at x into `reg[dst, i]`: the breakpoints are `reg[first + j, i, 0]`, not
+    decreasing, the values `reg[values + j, i]`; linear between breakpoints, held at the ends,
+    a repeated breakpoint's last value from it on (as `functions.table_interp`). A binary search:
+    O(log count)."""
+    low, high = 0, count
+    while low < high:
+        middle = (low + high) // 2
+        if reg[first + middle, i, 0] <= x:
+            low = middle + 1
+        else:
+            high = middle
+    j = low - 1
+    for k in range(3):
+        if x != x:
+            reg[dst, i, k] = math.nan
+        elif j < 0 or j >= count - 1:
+            reg[dst, i, k] = reg[values + min(max(j, 0), count - 1), i, k]
+        else:
+            u = (x - reg[first + j, i, 0]) / (reg[first + j + 1, i, 0] - reg[first + j, i, 0])
+            reg[dst, i, k] = reg[values + j, i, k] + u * (reg[values + j + 1, i, k] - reg[values + j, i, k])
 
 
 @numba.njit(cache=True)
@@ -393,22 +379,22 @@ def run(
     A force or spring value that is NaN or infinite is not applied: `run` returns where it
     was (see `NO_FAULT`), for the runtime to report.
     """
-    code, reg = _ints2(table, CODE), _reals3(table, REGISTERS)
+    code, reg = ints2(table, CODE), reals3(table, REGISTERS)
     n = reg.shape[1]
-    point_body, frame_body = _ints2(table, POINT_BODY), _ints2(table, FRAME_BODY)
-    leg_of_geom, animal_of_geom = _ints1(table, LEG_OF_GEOM), _ints1(table, ANIMAL_OF_GEOM)
-    heading_points, body_root = _ints1(table, HEADING_POINTS), _ints1(table, BODY_ROOT)
-    spring_start, spring_dof = _ints1(table, SPRING_START), _ints2(table, SPRING_DOF)
-    spring_qpos, spring_twist = _ints2(table, SPRING_QPOS), _ints2(table, SPRING_TWIST)
-    slot_body, state, sensor_ready = _ints2(table, SLOT_BODY), _ints2(table, STATE), _ints1(table, SENSOR_READY)
-    point_offset, base_damping = _reals3(table, POINT_OFFSET), _reals1(table, BASE_DAMPING)
-    slot_point, slot_force = _reals3(table, SLOT_POINT), _reals3(table, SLOT_FORCE)
-    phase, time_in_state = _reals2(table, PHASES), _reals2(table, TIME_IN_STATE)
-    damping, contact = _reals1(table, DAMPING), _reals2(table, CONTACTS)
-    normals, heading = _reals3(table, NORMALS), _reals3(table, HEADING_FRAMES)
-    xpos, xmat, xipos = _reals2(table, XPOS), _reals2(table, XMAT), _reals2(table, XIPOS)
-    cvel, subtree_com, qpos = _reals2(table, CVEL), _reals2(table, SUBTREE_COM), _reals1(table, QPOS)
-    qfrc, xfrc, dof_damping = _reals1(table, QFRC), _reals2(table, XFRC), _reals1(table, DOF_DAMPING)
+    point_body, frame_body = ints2(table, POINT_BODY), ints2(table, FRAME_BODY)
+    leg_of_geom, animal_of_geom = ints1(table, LEG_OF_GEOM), ints1(table, ANIMAL_OF_GEOM)
+    heading_points, body_root = ints1(table, HEADING_POINTS), ints1(table, BODY_ROOT)
+    spring_start, spring_dof = ints1(table, SPRING_START), ints2(table, SPRING_DOF)
+    spring_qpos, spring_twist = ints2(table, SPRING_QPOS), ints2(table, SPRING_TWIST)
+    slot_body, state, sensor_ready = ints2(table, SLOT_BODY), ints2(table, STATE), ints1(table, SENSOR_READY)
+    point_offset, base_damping = reals3(table, POINT_OFFSET), reals1(table, BASE_DAMPING)
+    slot_point, slot_force = reals3(table, SLOT_POINT), reals3(table, SLOT_FORCE)
+    phase, time_in_state = reals2(table, PHASES), reals2(table, TIME_IN_STATE)
+    damping, contact = reals1(table, DAMPING), reals2(table, CONTACTS)
+    normals, heading = reals3(table, NORMALS), reals3(table, HEADING_FRAMES)
+    xpos, xmat, xipos = reals2(table, XPOS), reals2(table, XMAT), reals2(table, XIPOS)
+    cvel, subtree_com, qpos = reals2(table, CVEL), reals2(table, SUBTREE_COM), reals1(table, QPOS)
+    qfrc, xfrc, dof_damping = reals1(table, QFRC), reals2(table, XFRC), reals1(table, DOF_DAMPING)
     model, data = table[MODEL, 0], table[DATA, 0]
     _contacts(ncon, contact_geoms, contact_frames, leg_of_geom, animal_of_geom, contact, normals)
     _headings(xpos, xmat, point_body, point_offset, heading_points[0], heading_points[1], heading)
@@ -464,6 +450,9 @@ def run(
                 vx, vy, vz = _unit(reg[b, i, 0], reg[b, i, 1], reg[b, i, 2])
                 value = math.acos(min(max(ux * vx + uy * vy + uz * vz, -1.0), 1.0))
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
+        elif op == INTERP:
+            for i in range(n):
+                _interp(reg, dst, i, reg[a, i, 0], b, c, e)
         elif op == HORIZONTAL:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = reg[a, i, 0], reg[a, i, 1], 0.0

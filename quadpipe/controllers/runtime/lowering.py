@@ -57,6 +57,7 @@ from quadpipe.controllers.runtime.kernel import (
     HEADING,
     HEIGHT,
     HORIZONTAL,
+    INTERP,
     JUMP_IF_NONE,
     LE,
     LEG_LIFT,
@@ -95,7 +96,7 @@ from quadpipe.controllers.runtime.kernel import (
     ZERO,
 )
 from quadpipe.quantities import units
-from quadpipe.quantities.expressions import TIME_VARIABLE, VECTOR, Compiled, Expr, Type, compile_expr
+from quadpipe.quantities.expressions import TIME_VARIABLE, VECTOR, Compiled, Expr, Type, compile_expr, table_rows
 
 FUNCTION_OPS: dict[str, int] = {
     "sin": SIN, "cos": COS, "tan": TAN, "asin": ASIN, "acos": ACOS, "atan": ATAN,
@@ -311,6 +312,8 @@ class _Lowerer:
         op = expr.op
         if op == "var":
             return self.variable(str(expr.value))
+        if op == "interp":
+            return self.table(expr, lowered)
         args = [self.expr(arg, lowered) for arg in expr.args]
         if op in BINARY_OPS:
             return self.op(BINARY_OPS[op], *args)
@@ -332,6 +335,19 @@ class _Lowerer:
         if op == "call":
             return self.call(str(expr.value), args)
         raise ValueError(f"the kernel cannot run expression node {op!r}")
+
+    def table(self, expr: Expr, lowered: dict[int, int]) -> int:
+        """A table read (`interp`): its breakpoints and its values in two blocks of consecutive
+        constant registers, one per point (one block per distinct list), searched by `INTERP`."""
+        vector, blocks = expr.type.kind == VECTOR, list[int]()
+        for rows, kind in zip(table_rows(expr, self.compiled.scale), (False, vector)):
+            key = ("block", kind, rows.tobytes())
+            if key not in self.constant_keys:
+                self.constant_keys[key] = self.registers
+                self.constants |= {self.new_register(kind): row for row in rows}
+            blocks.append(self.constant_keys[key])
+        x = self.expr(expr.args[0], lowered)
+        return self.shared(self.memo.needs.get(x, frozenset()), vector, INTERP, x, blocks[0], blocks[1], expr.value)
 
     def reduce(self, op: int, args: list[int]) -> int:
         result = args[0]
