@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -144,7 +145,7 @@ def variation_of(amount: float, seed: int) -> Variation | None:
     return variation if variation.active else None
 
 
-def parse_parameters(pairs: list[str] | None) -> dict[str, str]:
+def parse_parameters(pairs: Sequence[str] | None) -> dict[str, str]:
     """The `--set NAME=VALUE` options as a dict.
 
     Raises:
@@ -166,7 +167,7 @@ def parse_parameters(pairs: list[str] | None) -> dict[str, str]:
     return result
 
 
-def parameter_places(pairs: list[str] | None) -> dict[str, Location]:
+def parameter_places(pairs: Sequence[str] | None) -> dict[str, Location]:
     """Where each `--set` value was given, for messages about it: `--set froude=2 m: error ...`."""
     from quadpipe.core.errors import Location as Given
 
