@@ -99,6 +99,20 @@ def animal_source(animal: str, limits: Path | None, roles: Path | None, mass: fl
     return AnimalSource(animal, limits, roles, mass)
 
 
+def check_animal_name(source: str) -> None:
+    """Refuse an animal name that is not built in, as the animal library would (`unknown-animal`,
+    naming the closest), without importing it and numpy: a source with no suffix is a name, or
+    a config file's path.
+
+    Raises:
+        QuadpipeError: `unknown-animal`, or a missing file.
+    """
+    if not Path(source).suffix:
+        from quadpipe.core import configs
+
+        configs.find_config("animals", source)
+
+
 ControllerOpt = Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")]
 SceneOpt = Annotated[str, typer.Option("--scene", help="Scene name or file: terrain, props, throws, goals.")]
 DirectionOpt = Annotated[
