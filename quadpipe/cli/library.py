@@ -158,13 +158,14 @@ def convert(
     """
     from quadpipe.core.atomic import check_writable, write_text
     from quadpipe.core.outputs import check_distinct, check_suffix
-    from quadpipe.world.placement import Placement, world_mjcf
 
     inputs = [("the source file", Path(source)), ("the --limits file", limits), ("the --roles file", roles)]
     check_distinct([("-o", output)], [(option, path) for option, path in inputs if path is not None])
     check_suffix("-o", output, MJCF_SUFFIXES, "MJCF (XML)")
     check_writable(output)
     built = built_animal(source, limits, roles, mass, rest_frame)
+    from quadpipe.world.placement import Placement, world_mjcf
+
     write_text(output, world_mjcf([Placement(built.animal.name, built)], floor=floor))
     typer.echo(
         f"wrote {output} ({built.animal.name}: {len(built.animal.skeleton.bones)} bones, {built.animal.mass_kg:g} kg)"
