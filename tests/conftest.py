@@ -6,7 +6,9 @@ import functools
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
+from unittest import mock
 
 import pytest
 
@@ -63,12 +65,16 @@ def invoke_cli(*args: str) -> subprocess.CompletedProcess:
     command writes rather than about the process: no interpreter to start, no modules to import
     again. `quadpipe.cli.main`'s error handling is not in the way, so an error the command
     raises (a `QuadpipeError` included) propagates and fails the test; typer's own usage errors
-    exit 2 with their message on stderr, as in a real process."""
+    exit 2 with their message on stderr, as in a real process. The warning filters and the
+    environment the command changes (it hides library warnings, `PYTHONWARNINGS` included) are
+    restored afterwards, so that later tests in this process, and their subprocesses, still
+    see warnings."""
     from typer.testing import CliRunner
 
     from quadpipe.cli import app
 
-    result = CliRunner().invoke(app, list(args), catch_exceptions=False)
+    with warnings.catch_warnings(), mock.patch.dict(os.environ):
+        result = CliRunner().invoke(app, list(args), catch_exceptions=False)
     return subprocess.CompletedProcess(["quadpipe", *args], result.exit_code, result.stdout, result.stderr)
 
 

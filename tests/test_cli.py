@@ -46,8 +46,8 @@ def test_debug_shows_the_traceback(cli):
     assert "Traceback" in result.stderr and "QuadpipeError" in result.stderr
 
 
-def test_animals_lists_every_animal_with_its_size(cli):
-    result = cli("animals", "--format", "json")
+def test_animals_lists_every_animal_with_its_size():
+    result = invoke_cli("animals", "--format", "json")
     assert result.returncode == 0, result.stderr
     rows = {row["name"]: row for row in json.loads(result.stdout)}
     assert set(rows) == set(configs.available("animals"))
@@ -55,8 +55,8 @@ def test_animals_lists_every_animal_with_its_size(cli):
     assert rows["rat"]["timestep_s"] == pytest.approx(1 / 600)
 
 
-def test_inspect_reports_bones_masses_and_limits(cli):
-    result = cli("inspect", "dog", "--format", "json")
+def test_inspect_reports_bones_masses_and_limits():
+    result = invoke_cli("inspect", "dog", "--format", "json")
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
     bones = {bone["role"]: bone for bone in report["bones"]}
@@ -65,18 +65,20 @@ def test_inspect_reports_bones_masses_and_limits(cli):
     assert sum(bone["mass_kg"] for bone in bones.values()) == pytest.approx(report["animal"]["mass_kg"], rel=1e-3)
 
 
-def test_convert_writes_mjcf_that_mujoco_loads(cli, tmp_path):
+def test_convert_writes_mjcf_that_mujoco_loads(tmp_path):
     target = tmp_path / "dog.xml"
-    result = cli("convert", "dog", "-o", str(target))
+    result = invoke_cli("convert", "dog", "-o", str(target))
     assert result.returncode == 0, result.stderr
     model = mujoco.MjModel.from_xml_path(str(target))
     assert model.body("dog/pelvis").id > 0 and model.geom("floor").id >= 0
     assert model.opt.timestep == pytest.approx(1 / 120) and model.opt.iterations == 32
 
 
-def test_convert_from_a_bare_skeleton_file(cli, tmp_path):
+def test_convert_from_a_bare_skeleton_file(tmp_path):
     target = tmp_path / "model.xml"
-    result = cli("convert", str(REPO / "configs" / "skeletons" / "horse.xml"), "--mass", "500", "-o", str(target))
+    result = invoke_cli(
+        "convert", str(REPO / "configs" / "skeletons" / "horse.xml"), "--mass", "500", "-o", str(target)
+    )
     assert result.returncode == 0, result.stderr
     model = mujoco.MjModel.from_xml_path(str(target))
     assert model.body_subtreemass[0] == pytest.approx(500)
@@ -101,23 +103,23 @@ def test_help_of_every_command_has_an_example():
         assert "Example:" in result.stdout, name
 
 
-def test_roles_guesses_a_bvh_and_writes_a_role_map_that_loads(cli, tmp_path):
+def test_roles_guesses_a_bvh_and_writes_a_role_map_that_loads(tmp_path):
     source = FIXTURES / "skeletons" / "reference.bvh"
     role_map = tmp_path / "roles.yaml"
-    result = cli("roles", str(source), "-o", str(role_map))
+    result = invoke_cli("roles", str(source), "-o", str(role_map))
     assert result.returncode == 0, result.stderr
     assert "39 joints placed, 0 roles missing" in result.stdout
-    inspected = cli("inspect", str(source), "--roles", str(role_map), "--format", "json")
+    inspected = invoke_cli("inspect", str(source), "--roles", str(role_map), "--format", "json")
     assert inspected.returncode == 0, inspected.stderr
     bones = {bone["role"]: bone["name"] for bone in json.loads(inspected.stdout)["bones"]}
     assert bones["lh_hip"] == "Bip01 L Thigh" and bones["pelvis"] == "Bip01 Pelvis"
 
 
-def test_analyze_recognises_a_simulated_walk_and_draws_its_footfalls(cli, tmp_path):
+def test_analyze_recognises_a_simulated_walk_and_draws_its_footfalls(tmp_path):
     clip = tmp_path / "walk.npz"
-    assert cli("simulate", "-c", "spine_walk", "-s", "6", "-o", str(clip)).returncode == 0
+    assert invoke_cli("simulate", "-c", "spine_walk", "-s", "6", "-o", str(clip)).returncode == 0
     report, diagram = tmp_path / "report.json", tmp_path / "footfalls.png"
-    result = cli("analyze", str(clip), "-o", str(report), "--diagram", str(diagram))
+    result = invoke_cli("analyze", str(clip), "-o", str(report), "--diagram", str(diagram))
     assert result.returncode == 0, result.stderr
     gait = json.loads(report.read_text())["animals"]["dog"]["gait"]
     assert gait["name"] == "walk"

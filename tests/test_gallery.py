@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 
 import pytest
 
@@ -58,3 +59,10 @@ def test_the_page_has_a_table_per_animal_linking_every_file(gallery):
         for name in row["files"].values():
             assert f"(gallery/{name})" in page
     assert page.count("FELL") == 2 and "stride - s" in page
+
+
+def test_the_figures_are_kept_as_the_page_shows_them(gallery):
+    row = {"froude": 0.14222901765866489, "speed_m_s": 1.143156488317599, "period_s": None, "animal": "bear"}
+    assert gallery.rounded_figures(row) == {"froude": 0.14, "speed_m_s": 1.14, "period_s": None, "animal": "bear"}
+    for kept in json.loads((REPO / gallery.FIGURES).read_text()):
+        assert kept == gallery.rounded_figures(kept), kept["animal"]

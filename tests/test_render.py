@@ -218,6 +218,24 @@ def test_same_frame_gives_the_same_pixels(short_clip):
 # --- overlays -------------------------------------------------------------------------------
 
 
+def test_overlay_geoms_are_fully_described_so_that_renders_repeat(short_clip):
+    """Every field of an overlay's scene geoms is set, none left as the scene's memory held it
+    (renders of one clip in one process differed by a few pixels, now and then, while the
+    object type and id were whatever an earlier scene had left there)."""
+    import mujoco
+
+    with render.ClipRenderer(short_clip, width=WIDTH, height=HEIGHT) as renderer:
+        renderer.render(SHORT_FRAMES - 1)
+        scene = renderer.scene
+        geoms = [scene.geoms[index] for index in range(scene.ngeom)]
+        decorations = [index for index, geom in enumerate(geoms) if geom.category == mujoco.mjtCatBit.mjCAT_DECOR]
+        overlays = [index for index in decorations if geoms[index].type != mujoco.mjtGeom.mjGEOM_PLANE]
+        assert len(overlays) > 2  # the trail's segments and the feet down
+        for index in overlays:
+            geom = geoms[index]
+            assert (geom.objtype, geom.objid, geom.segid) == (mujoco.mjtObj.mjOBJ_UNKNOWN, -1, index)
+
+
 def _beside_animal(view: render.CameraView, offset_hp: float, scale: float) -> np.ndarray:
     """A world point to the camera's right of the target, on the target's level."""
     return view.lookat + view.axes()[2] * offset_hp * scale

@@ -61,6 +61,11 @@ VIDEO_SIZE = (320, 240)
 FAR_GOAL = "[1000 HP, 0, 0]"
 """A goal far ahead, so that the animal goes straight along +x (the views assume it)."""
 
+FIGURE_DECIMALS = 2
+"""Decimals kept of the measured Froude number, speed (m/s) and stride period (s), as the page
+shows them: they vary by more than that from stride to stride, and a recorded frame is 1/30 s
+or shorter."""
+
 SHEET_VIEWS = ("side", "rear")
 VIDEO_VIEW = "side"
 
@@ -166,20 +171,31 @@ def render_one(animal: str, gait: str) -> dict[str, Any]:
         fps=VIDEO_FPS,
         camera=turned_view(VIDEO_VIEW, settled),
     )
-    return {
-        "animal": animal,
-        "gait": gait,
-        "measured": report.gait.label,
-        "froude": report.froude,
-        "speed_m_s": report.speed_m_s,
-        "period_s": report.stride_period_s,
-        "fell": bool(result.metrics["animals"][result.clip.animals[0].name]["fell"]),
-        "files": {name: path.name for name, path in files.items()},
+    return rounded_figures(
+        {
+            "animal": animal,
+            "gait": gait,
+            "measured": report.gait.label,
+            "froude": report.froude,
+            "speed_m_s": report.speed_m_s,
+            "period_s": report.stride_period_s,
+            "fell": bool(result.metrics["animals"][result.clip.animals[0].name]["fell"]),
+            "files": {name: path.name for name, path in files.items()},
+        }
+    )
+
+
+def rounded_figures(row: dict[str, Any]) -> dict[str, Any]:
+    """A row of the page with its measured figures rounded to `FIGURE_DECIMALS`; a figure that
+    could not be measured stays None."""
+    return row | {
+        name: None if row[name] is None else round(row[name], FIGURE_DECIMALS)
+        for name in ("froude", "speed_m_s", "period_s")
     }
 
 
-def _figure(value: float | None, form: str) -> str:
-    return "-" if value is None else format(value, form)
+def _figure(value: float | None) -> str:
+    return "-" if value is None else f"{value:.{FIGURE_DECIMALS}f}"
 
 
 def page(rows: list[dict[str, Any]]) -> str:
@@ -208,8 +224,8 @@ def page(rows: list[dict[str, Any]]) -> str:
         for row in (row for row in rows if row["animal"] == animal):
             files = row["files"]
             measured = (
-                f"{row['measured']}, Fr {_figure(row['froude'], '.2f')}, {_figure(row['speed_m_s'], '.2f')} m/s, "
-                f"stride {_figure(row['period_s'], '.2f')} s{', FELL' if row['fell'] else ''}"
+                f"{row['measured']}, Fr {_figure(row['froude'])}, {_figure(row['speed_m_s'])} m/s, "
+                f"stride {_figure(row['period_s'])} s{', FELL' if row['fell'] else ''}"
             )
             lines.append(
                 f"| {row['gait']} | ![{animal} {row['gait']}, side](gallery/{files['side']}) "
@@ -235,7 +251,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{row['animal']:9} {row['gait']:7} {row['measured']}")
     kept = json.loads(FIGURES.read_text()) if FIGURES.exists() else []
     rows = sorted(
-        [row for row in kept if row["animal"] not in args.animals] + rows,
+        [rounded_figures(row) for row in kept if row["animal"] not in args.animals] + rows,
         key=lambda row: (row["animal"], row["gait"] != "walk"),
     )
     FIGURES.write_text(json.dumps(rows, indent=1) + "\n")

@@ -9,7 +9,16 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from quadpipe.cli.options import FormatOpt, LimitsOpt, MassOpt, OutputFormat, RestFrameOpt, RolesOpt, SourceArg
+from quadpipe.cli.options import (
+    FormatOpt,
+    LimitsOpt,
+    MassOpt,
+    OutputFormat,
+    RestFrameOpt,
+    RolesOpt,
+    SourceArg,
+    check_animal_name,
+)
 from quadpipe.cli.output import print_table, print_warnings
 
 if TYPE_CHECKING:
@@ -43,12 +52,16 @@ def announce_animal(source: AnimalSource) -> None:
 def built_animal(
     source: str, limits: Path | None, roles: Path | None, mass: float | None, rest_frame: int | None = None
 ) -> BuiltAnimal:
-    """Resolve and build an animal, printing its warnings."""
+    """Resolve and build an animal, printing its warnings. A name that is not built in is refused
+    before the animal library (numpy) is imported, the model builder (MuJoCo) only once the
+    animal has loaded."""
+    check_animal_name(source)
     from quadpipe.animals.library import resolve_animal
-    from quadpipe.animals.model import build_animal
 
     animal = resolve_animal(source, limits=limits, role_map=roles, mass_kg=mass, rest_frame=rest_frame)
     print_warnings(animal.warnings)
+    from quadpipe.animals.model import build_animal
+
     return build_animal(animal)
 
 
@@ -145,13 +158,14 @@ def convert(
     """
     from quadpipe.core.atomic import check_writable, write_text
     from quadpipe.core.outputs import check_distinct, check_suffix
-    from quadpipe.world.placement import Placement, world_mjcf
 
     inputs = [("the source file", Path(source)), ("the --limits file", limits), ("the --roles file", roles)]
     check_distinct([("-o", output)], [(option, path) for option, path in inputs if path is not None])
     check_suffix("-o", output, MJCF_SUFFIXES, "MJCF (XML)")
     check_writable(output)
     built = built_animal(source, limits, roles, mass, rest_frame)
+    from quadpipe.world.placement import Placement, world_mjcf
+
     write_text(output, world_mjcf([Placement(built.animal.name, built)], floor=floor))
     typer.echo(
         f"wrote {output} ({built.animal.name}: {len(built.animal.skeleton.bones)} bones, {built.animal.mass_kg:g} kg)"
@@ -172,9 +186,9 @@ def inspect(
 
     Example: quadpipe inspect horse   |   quadpipe inspect rig.bvh --roles rig_roles.yaml
     """
+    built = built_animal(source, limits, roles, mass, rest_frame)
     from quadpipe.animals import report
 
-    built = built_animal(source, limits, roles, mass, rest_frame)
     summary, bones = report.animal_row(built), report.bone_rows(built)
     if fmt is OutputFormat.json:
         typer.echo(json.dumps({"animal": summary, "bones": bones}, indent=2))

@@ -150,8 +150,6 @@ def analyze(
     """
     import dataclasses
 
-    from quadpipe.analysis import analyze_clip, check_diagram_path, format_report, posture_report
-    from quadpipe.analysis.direction import direction_reports
     from quadpipe.core.outputs import check_distinct, check_suffix
     from quadpipe.exporters.npz import load_clip
 
@@ -160,8 +158,13 @@ def analyze(
     if output is not None:
         check_suffix("-o", output, (".json",), "the JSON report")
     if diagram is not None:
+        from quadpipe.analysis import check_diagram_path
+
         check_diagram_path(diagram)
     baked = load_clip(clip)
+    from quadpipe.analysis import analyze_clip, format_report, posture_report
+    from quadpipe.analysis.direction import direction_reports
+
     report = dataclasses.replace(
         analyze_clip(baked, animal),
         posture=posture_report(baked, animal, *(() if settle is None else (settle,))),

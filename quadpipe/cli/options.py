@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -98,6 +99,20 @@ def animal_source(animal: str, limits: Path | None, roles: Path | None, mass: fl
     return AnimalSource(animal, limits, roles, mass)
 
 
+def check_animal_name(source: str) -> None:
+    """Refuse an animal name that is not built in, as the animal library would (`unknown-animal`,
+    naming the closest), without importing it and numpy: a source with no suffix is a name, or
+    a config file's path.
+
+    Raises:
+        QuadpipeError: `unknown-animal`, or a missing file.
+    """
+    if not Path(source).suffix:
+        from quadpipe.core import configs
+
+        configs.find_config("animals", source)
+
+
 ControllerOpt = Annotated[str, typer.Option("--controller", "-c", help="Controller name or file.")]
 SceneOpt = Annotated[str, typer.Option("--scene", help="Scene name or file: terrain, props, throws, goals.")]
 DirectionOpt = Annotated[
@@ -144,7 +159,7 @@ def variation_of(amount: float, seed: int) -> Variation | None:
     return variation if variation.active else None
 
 
-def parse_parameters(pairs: list[str] | None) -> dict[str, str]:
+def parse_parameters(pairs: Sequence[str] | None) -> dict[str, str]:
     """The `--set NAME=VALUE` options as a dict.
 
     Raises:
@@ -166,7 +181,7 @@ def parse_parameters(pairs: list[str] | None) -> dict[str, str]:
     return result
 
 
-def parameter_places(pairs: list[str] | None) -> dict[str, Location]:
+def parameter_places(pairs: Sequence[str] | None) -> dict[str, Location]:
     """Where each `--set` value was given, for messages about it: `--set froude=2 m: error ...`."""
     from quadpipe.core.errors import Location as Given
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -71,22 +73,23 @@ def simulate(
     Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png --variation 0.03
     |   quadpipe simulate -a rig.bvh --roles rig_roles.yaml --mass 25 -c walk -o rig_walk.bvh
     """
-    source = animal_source(animal, limits, roles, mass)
     _bake_and_report(
-        source,
-        controller,
-        scene,
-        seconds,
-        [output],
-        metrics,
-        parameters,
-        fps,
-        gait_report,
-        diagram,
-        look_name(look),
-        skeleton.value,
-        direction,
-        variation_of(variation, seed),
+        BakeOptions(
+            animal=animal_source(animal, limits, roles, mass),
+            controller=controller,
+            scene=scene,
+            seconds=seconds,
+            outputs=(output,),
+            metrics=metrics,
+            parameters=tuple(parameters or ()),
+            fps=fps,
+            gait_report=gait_report,
+            diagram=diagram,
+            look=look_name(look),
+            skeleton=skeleton.value,
+            direction=direction,
+            variation=variation_of(variation, seed),
+        )
     )
 
 
@@ -116,41 +119,50 @@ def bake(
     file (-a rig.ma --roles rig_roles.yaml) is baked onto its own joints (--skeleton roles: the 39 roles).
     Example: quadpipe bake --animal horse --controller trot --scene hill -o horse.glb -o horse.usdc --gait-report horse.gait.json
     """
-    source = animal_source(animal, limits, roles, mass)
     _bake_and_report(
-        source,
-        controller,
-        scene,
-        seconds,
-        outputs,
-        metrics,
-        parameters,
-        fps,
-        gait_report,
-        diagram,
-        look_name(look),
-        skeleton.value,
-        direction,
-        variation_of(variation, seed),
+        BakeOptions(
+            animal=animal_source(animal, limits, roles, mass),
+            controller=controller,
+            scene=scene,
+            seconds=seconds,
+            outputs=tuple(outputs),
+            metrics=metrics,
+            parameters=tuple(parameters or ()),
+            fps=fps,
+            gait_report=gait_report,
+            diagram=diagram,
+            look=look_name(look),
+            skeleton=skeleton.value,
+            direction=direction,
+            variation=variation_of(variation, seed),
+        )
     )
 
 
-def _bake_and_report(
-    animal: AnimalSource,
-    controller: str,
-    scene: str,
-    seconds: float,
-    outputs: list[Path],
-    metrics: Path | None,
-    parameters: list[str] | None,
-    fps: float,
-    gait_report: Path | None,
-    diagram: Path | None,
-    look: LookName,
-    skeleton: SkeletonChoice,
-    direction: Path | None = None,
-    variation: Variation | None = None,
-) -> None:
+@dataclass(frozen=True)
+class BakeOptions:
+    """What `simulate` and `bake` are asked for: the run, the files it writes, and how."""
+
+    animal: AnimalSource
+    controller: str
+    scene: str
+    seconds: float
+    outputs: tuple[Path, ...]
+    """The clip files (at least one); the suffix picks the format."""
+    metrics: Path | None
+    """The metrics JSON (None: beside the first output)."""
+    parameters: tuple[str, ...]
+    """The `--set NAME=VALUE` options, as given."""
+    fps: float
+    gait_report: Path | None
+    diagram: Path | None
+    look: LookName
+    skeleton: SkeletonChoice
+    direction: Path | None
+    variation: Variation | None
+
+
+def _bake_and_report(options: BakeOptions) -> None:
     """`simulate` and `bake`: check every output path first, bake, print the figures, write the gait
     files: every file, or none (they are renamed into place together at the end). A skeleton
     file's notes and mass are printed first (`announce_animal`)."""
@@ -159,41 +171,43 @@ def _bake_and_report(
     from quadpipe.core.atomic import transaction
     from quadpipe.core.limits import check_run
 
-    check_run(seconds, fps, names=("--seconds", "--fps"))
-    metrics_path = metrics or outputs[0].with_suffix(METRICS_SUFFIX)
-    metrics_named = ("--metrics", metrics) if metrics else ("the default --metrics", metrics_path)
-    inputs = list(zip(INPUT_OPTIONS, [str(animal), controller, scene])) + (
-        [("--direction", str(direction))] if direction else []
+    check_run(options.seconds, options.fps, names=("--seconds", "--fps"))
+    metrics_path = options.metrics or options.outputs[0].with_suffix(METRICS_SUFFIX)
+    metrics_named = ("--metrics", options.metrics) if options.metrics else ("the default --metrics", metrics_path)
+    inputs = list(zip(INPUT_OPTIONS, [str(options.animal), options.controller, options.scene])) + (
+        [("--direction", str(options.direction))] if options.direction else []
     )
-    _check_bake_outputs(outputs, metrics_named, gait_report, diagram, inputs)
-    announce_animal(animal)
+    _check_bake_outputs(options.outputs, metrics_named, options.gait_report, options.diagram, inputs)
+    announce_animal(options.animal)
     with transaction():
         result = bake(
-            animal,
-            controller,
-            seconds=seconds,
-            outputs=outputs,
+            options.animal,
+            options.controller,
+            seconds=options.seconds,
+            outputs=options.outputs,
             metrics_path=metrics_path,
-            scene=scene,
-            parameters=parse_parameters(parameters),
-            places=parameter_places(parameters),
-            fps=fps,
-            look=look,
-            skeleton=skeleton,
-            direction=direction,
-            variation=variation,
+            scene=options.scene,
+            parameters=parse_parameters(options.parameters),
+            places=parameter_places(options.parameters),
+            fps=options.fps,
+            look=options.look,
+            skeleton=options.skeleton,
+            direction=options.direction,
+            variation=options.variation,
         )
         print_warnings(result.warnings)
-        typer.echo(f"wrote {', '.join(map(str, outputs))} and {metrics_path}: {result.metrics['frames']} frames")
+        typer.echo(
+            f"wrote {', '.join(map(str, options.outputs))} and {metrics_path}: {result.metrics['frames']} frames"
+        )
         for name, figures in result.metrics["animals"].items():
             typer.echo(
                 f"  {name}: {figures['distance_hp']:.2f} HP travelled, pelvis {figures['pelvis_height_min_hp']:.2f}-"
                 f"{figures['pelvis_height_max_hp']:.2f} HP{', FELL' if figures['fell'] else ''}"
             )
-        if gait_report is not None or diagram is not None:
+        if options.gait_report is not None or options.diagram is not None:
             from quadpipe.analysis import analyze_clip
 
-            write_gait_files(analyze_clip(result.clip), gait_report, diagram)
+            write_gait_files(analyze_clip(result.clip), options.gait_report, options.diagram)
 
 
 INPUT_OPTIONS = ("--animal", "--controller", "--scene")
@@ -201,7 +215,7 @@ INPUT_OPTIONS = ("--animal", "--controller", "--scene")
 
 
 def _check_bake_outputs(
-    outputs: list[Path],
+    outputs: Sequence[Path],
     metrics: tuple[str, Path],
     gait_report: Path | None,
     diagram: Path | None,

@@ -196,5 +196,20 @@ def draw_overlay(scene: mujoco.MjvScene, overlay: Overlay, frame: int) -> None:
             mujoco.mjv_connector(geom, geom_type, radius, start, start + ARROW_STRETCH * (end - start))
         elif overlay.kind == "line":
             mujoco.mjv_connector(geom, geom_type, radius, start, end)
-        geom.category = mujoco.mjtCatBit.mjCAT_DECOR
+        _describe_decoration(geom, scene.ngeom)
         scene.ngeom += 1
+
+
+def _describe_decoration(geom: mujoco.MjvGeom, index: int) -> None:
+    """Set the fields `mjv_initGeom` leaves as the scene's memory held them, as `mjv_updateScene`
+    sets them for a decoration: no object (`objtype`, `objid`), its own segmentation id, no
+    camera distance yet (`mjr_render` measures the translucent ones). Left alone they held
+    whatever an earlier scene of the process had left there, and renders of one clip in one
+    process differed by a few pixels, now and then."""
+    import mujoco
+
+    geom.category = mujoco.mjtCatBit.mjCAT_DECOR
+    geom.objtype = mujoco.mjtObj.mjOBJ_UNKNOWN
+    geom.objid = -1
+    geom.segid = index
+    geom.camdist = 0.0

@@ -33,6 +33,7 @@ from quadpipe.anatomy.roles import FOOT_BONES, JOINT_AXES, LEGS, ROLES
 from quadpipe.animals.library import repertoire_parameters, repertoire_place
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
+from quadpipe.controllers.language.loader import CONTROLLER_KIND, merge_controller
 from quadpipe.controllers.runtime.kernel import (
     HEADING_MIN_NORM,
     INTEGER_ARRAYS,
@@ -45,6 +46,7 @@ from quadpipe.controllers.runtime.kernel import (
 )
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
 from quadpipe.controllers.runtime.variation import StrideClock, Variation
+from quadpipe.core import configs
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.world.placement import Placement
@@ -449,16 +451,26 @@ def compile_for(
             `mixed-repertoires` when the animals' species offer different values of a
             parameter the controller declares and the caller does not set.
     """
-    spec = load_controller(controller)
+    declared = declared_parameters(controller)
     given = dict(parameters or {})
-    species, species_places = _species_offers(placements, set(spec.parameters) - set(given))
-    offered = species | {name: value for name, value in (scene_parameters or {}).items() if name in spec.parameters}
+    species, species_places = _species_offers(placements, declared - set(given))
+    offered = species | {name: value for name, value in (scene_parameters or {}).items() if name in declared}
     overrides = offered | given
-    if overrides:
-        where = {**species_places, **(places or {})} or None
-        spec = load_controller(controller, parameters=overrides, places=where)
+    where = {**species_places, **(places or {})} or None
+    spec = load_controller(controller, parameters=overrides or None, places=where)
     scale = scale_for_animals([p.built.animal for p in placements])
     return compile_controller(spec, scale), spec.sources
+
+
+def declared_parameters(controller: str) -> set[str]:
+    """The names of the parameters (and tunables) a controller declares, its `extends` chain
+    included, read without analysing it: what it can be offered before it is loaded once with
+    its values. Empty when its files do not read (loading it then says why)."""
+    try:
+        merged = merge_controller(configs.find_config(CONTROLLER_KIND, controller), issues=[])
+    except QuadpipeError:
+        return set()
+    return set() if merged is None else set(merged.parameters)
 
 
 def _species_offers(placements: Sequence[Placement], declared: set[str]) -> tuple[dict[str, str], dict[str, Location]]:
