@@ -1,7 +1,8 @@
 """The controller runtime: a compiled controller turned into forces, every physics step.
 
 One `ControllerRuntime` drives every animal of a world at once. The controller is lowered
-once to a kernel program (`quadpipe.controllers.runtime.lowering`), and every step runs it in one call of the
+once to a kernel program (`quadpipe.controllers.runtime.lowering`), folded
+(`quadpipe.controllers.runtime.folding`), and every step runs it in one call of the
 compiled kernel (`quadpipe.controllers.runtime.kernel`), over all animals. Forces enter MuJoCo as Cartesian
 forces through `data.xfrc_applied` (laid out [force, torque], the torque taken about the
 body's centre of mass) for segments, pairs, pulls and cycles, and as joint torques through
@@ -33,6 +34,7 @@ from quadpipe.anatomy.roles import FOOT_BONES, JOINT_AXES, LEGS, ROLES
 from quadpipe.animals.library import repertoire_parameters
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
+from quadpipe.controllers.runtime.folding import fold
 from quadpipe.controllers.runtime.kernel import (
     HEADING_MIN_NORM,
     INTEGER_ARRAYS,
@@ -84,6 +86,8 @@ class ControllerRuntime:
         placements: the animals, in the order of `compiled.scale`.
         variation: seeded stride-to-stride variation of every cycle (`quadpipe.controllers.runtime.variation`);
             None: none, every stride alike.
+        folded: run the program folded (`quadpipe.controllers.runtime.folding`: the same forces from
+            fewer instructions); False runs it as lowered, to check or time the folding.
     """
 
     def __init__(
@@ -92,6 +96,8 @@ class ControllerRuntime:
         model: mujoco.MjModel,
         placements: Sequence[Placement],
         variation: Variation | None = None,
+        *,
+        folded: bool = True,
     ):
         self.compiled, self.model, self.placements = compiled, model, list(placements)
         self.name = compiled.name
@@ -103,7 +109,8 @@ class ControllerRuntime:
         self._animal_of_body = np.full(model.nbody, -1)
         for index, row in enumerate(self._bodies):
             self._animal_of_body[row] = index
-        self.program = lower(compiled, self.gravity)
+        lowered = lower(compiled, self.gravity)
+        self.program = fold(lowered) if folded else lowered
         registers = np.zeros((self.program.registers, self.n, 3))
         for register, value in self.program.constants.items():
             registers[register] = value
