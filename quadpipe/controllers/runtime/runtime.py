@@ -128,7 +128,7 @@ class ControllerRuntime:
         """The first non-finite force or spring value an element computed (None: none so far)."""
         self._table_for: mujoco.MjData | None = None
         self._table: np.ndarray  # set with `_table_for` by `_address_table`
-        self._few_contacts = (np.zeros((1, 4), np.int32)[:, ::2], np.zeros((1, 18))[:, ::2])
+        self._contacts: tuple[np.ndarray, np.ndarray]  # set with `_table_for` by `_address_table`
         self._clock = (
             StrideClock(variation, len(self.program.cycles), self.n) if variation and variation.active else None
         )
@@ -284,9 +284,9 @@ class ControllerRuntime:
 
     def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:
         """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
-        ncon = data.ncon
-        geoms, frames = self._contact_arrays(data, ncon)
-        fault = run(self._address_table(data), self.dt, 0, last, finish, data.time, ncon, geoms, frames)
+        table = self._address_table(data)
+        geoms, frames = self._contacts
+        fault = run(table, self.dt, 0, last, finish, data.time, data.ncon, geoms, frames)
         if fault != NO_FAULT and self.fault is None:
             self.fault = self._describe_fault(fault)
 
@@ -299,26 +299,31 @@ class ControllerRuntime:
             element, what = program.spring_elements[fault - len(program.slots)], "a spring target, stiffness or damping"
         return f"element {element!r} of {self.name} computed {what} that is NaN or infinite"
 
-    def _contact_arrays(self, data: mujoco.MjData, ncon: int) -> tuple[np.ndarray, np.ndarray]:
-        """The geoms and frames of the contacts: views into MuJoCo's contact structs.
+    @staticmethod
+    def _contact_arrays(data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """The geoms and frames of every contact `data` can hold: strided views into MuJoCo's
+        contact structs, of which the kernel reads the first `ncon` rows.
 
-        Those views are strided; one of a single contact (or none) would count as
-        contiguous, a different argument type that numba would load a second kernel for.
-        So up to one contact is copied into a strided buffer of our own.
+        MuJoCo keeps its contacts at the start of the data's arena, so these views stay valid
+        for the data's lifetime: made once per data (`data.contact` makes its views anew on
+        every read, ~2 µs a step). Each has as many rows as the arena holds contacts (at least
+        two: one row would count as contiguous, a different argument type that numba would
+        load a second kernel for).
         """
-        if ncon >= 2:
-            contacts = data.contact
-            return contacts.geom, contacts.frame
-        geoms, frames = self._few_contacts
-        if ncon == 1:
-            geoms[0], frames[0] = data.contact.geom[0], data.contact.frame[0]
-        return geoms, frames
+        contacts = data.contact
+        rows = max(2, data.narena // contacts.geom.strides[0])
+
+        def every_row(view: np.ndarray) -> np.ndarray:
+            return np.lib.stride_tricks.as_strided(view, (rows, view.shape[1]), view.strides)
+
+        return every_row(contacts.geom), every_row(contacts.frame)
 
     def _address_table(self, data: mujoco.MjData) -> np.ndarray:
         """The kernel's address table (`kernel.address_table`): this runtime's arrays, then
         `data`'s and the model's (their addresses stay the same for the data's lifetime, and
-        the runtime keeps the data it was last run on)."""
+        the runtime keeps the data it was last run on, and its contact views, `_contacts`)."""
         if self._table_for is not data:
+            self._contacts = self._contact_arrays(data)
             mujoco_arrays = [getattr(data, name) for name in MUJOCO_ARRAYS[:-1]] + [self.model.dof_damping]
             self._table = address_table(
                 self._own_rows
