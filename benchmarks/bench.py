@@ -138,6 +138,8 @@ class Plan:
         controller_animals: the animals of the `controllers` section (None: all; `--animals`).
         cpu_time: the `controllers` section counts this thread's CPU time instead of wall time
             (`--cpu-time`: on a machine loaded beyond its cores, wall time is mostly waiting).
+        unfolded: each `controllers` repetition also times the program as lowered, not folded
+            (`--unfolded-too`: the folding's gain, measured interleaved in the same run).
     """
 
     name: str
@@ -157,6 +159,7 @@ class Plan:
     batch_seconds: float
     controller_animals: tuple[str, ...] | None = None
     cpu_time: bool = False
+    unfolded: bool = False
 
 
 FULL = Plan(
@@ -323,11 +326,17 @@ class World:
         self.sim.use_controller(None)
         self.sim.reset()
 
-    def controlled_run(self, controller: str) -> Simulation:
-        """The simulation from the start under a freshly built runtime of `controller` (as `simulate` builds it)."""
+    def controlled_run(self, controller: str, folded: bool = True) -> Simulation:
+        """The simulation from the start under a freshly built runtime of `controller` (as `simulate`
+        builds it; `folded` False: its program as lowered, not folded, driving the simulation instead)."""
         self.reset()
         compiled, _ = self.sim.compile_controller(controller)
-        self.sim.use_controller(compiled)
+        runtime = self.sim.use_controller(compiled)
+        if not folded:
+            from quadpipe.controllers.runtime.runtime import ControllerRuntime
+
+            unfolded = ControllerRuntime(compiled, self.model, self.sim.placements, folded=False)
+            self.sim.controllers = [unfolded if c is runtime else c for c in self.sim.controllers]
         return self.sim
 
     def step_bare(self, steps: int) -> None:
@@ -391,6 +400,11 @@ def bench_controllers(ctx: Context) -> Section:
             " overhead = with / bare - 1; own = time inside the controller's `apply` per step (in the `with` run),"
             " own_share = own / bare; realtime = simulated s per wall s",
             "clock: this thread's CPU time (--cpu-time)" if ctx.plan.cpu_time else "clock: wall time",
+            *(
+                ["*_unfolded: the same controller's program as lowered, not folded, timed in each repetition"]
+                if ctx.plan.unfolded
+                else []
+            ),
         ],
     )
 
@@ -416,24 +430,30 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
     labels = {"animal": animal, "controller": controller}
     steps = world.steps(plan.controller_seconds)
     clock = step_clock(plan)
-    controlled: list[float] = []
-    own: list[float] = []
+    variants = (True, False) if plan.unfolded else (True,)
+    controlled: dict[bool, list[float]] = {folded: [] for folded in variants}
+    own: dict[bool, list[float]] = {folded: [] for folded in variants}
     bare: list[float] = []
     statuses: list[str] = []
     try:
         step_run(world.controlled_run(controller), WARM_UP_STEPS)
         for _ in range(plan.repeats):
-            run = world.controlled_run(controller)
-            timers = timed_controllers(run, clock)
-            controlled.append(timed(lambda run=run: step_run(run, steps), clock))
-            own.append(sum(timer.seconds for timer in timers))
-            statuses.append(world.status())
+            for folded in variants:
+                run = world.controlled_run(controller, folded)
+                timers = timed_controllers(run, clock)
+                controlled[folded].append(timed(lambda run=run: step_run(run, steps), clock))
+                own[folded].append(sum(timer.seconds for timer in timers))
+                statuses.append(world.status())
             world.reset()
             bare.append(timed(lambda: world.step_bare(steps), clock))
     except Exception as exc:  # measure anyway: one failing controller must not stop the benchmark
         return Row(labels, status=error_text(exc))
     simulated = steps * world.model.opt.timestep
-    return Row(labels, step_figures(controlled, own, bare, steps, simulated), worst_status(statuses))
+    figures = step_figures(controlled[True], own[True], bare, steps, simulated)
+    if plan.unfolded:
+        unfolded = step_figures(controlled[False], own[False], bare, steps, simulated)
+        figures |= {f"{name}_unfolded": unfolded[name] for name in ("with", "overhead", "own", "own_share")}
+    return Row(labels, figures, worst_status(statuses))
 
 
 class TimedController:
@@ -1136,6 +1156,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         metavar="JSON",
         help="OLD: run, then print old vs new; OLD NEW: compare two reports without running",
     )
+    parser.add_argument(
+        "--unfolded-too",
+        action="store_true",
+        help="the controllers section also times each program unfolded, interleaved (the folding's gain)",
+    )
     args = parser.parse_args(argv)
     if args.compare and len(args.compare) > 2:
         parser.error("--compare takes OLD, or OLD NEW")
@@ -1150,7 +1175,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     old = load_report(args.compare[0]) if args.compare else None
     plan = QUICK if args.quick else FULL
-    plan = replace(plan, controller_animals=tuple(args.animals) if args.animals else None, cpu_time=args.cpu_time)
+    plan = replace(
+        plan,
+        controller_animals=tuple(args.animals) if args.animals else None,
+        cpu_time=args.cpu_time,
+        unfolded=args.unfolded_too,
+    )
     report = run_benchmarks(plan, args.only or list(SECTIONS))
     from quadpipe.core.atomic import write_text
 

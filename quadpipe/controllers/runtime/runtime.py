@@ -1,7 +1,8 @@
 """The controller runtime: a compiled controller turned into forces, every physics step.
 
 One `ControllerRuntime` drives every animal of a world at once. The controller is lowered
-once to a kernel program (`quadpipe.controllers.runtime.lowering`), and every step runs it in one call of the
+once to a kernel program (`quadpipe.controllers.runtime.lowering`), folded
+(`quadpipe.controllers.runtime.folding`), and every step runs it in one call of the
 compiled kernel (`quadpipe.controllers.runtime.kernel`), over all animals. Forces enter MuJoCo as Cartesian
 forces through `data.xfrc_applied` (laid out [force, torque], the torque taken about the
 body's centre of mass) for segments, pairs, pulls and cycles, and as joint torques through
@@ -34,6 +35,7 @@ from quadpipe.animals.library import repertoire_parameters, repertoire_place
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.language.loader import CONTROLLER_KIND, merge_controller
+from quadpipe.controllers.runtime.folding import fold
 from quadpipe.controllers.runtime.kernel import (
     HEADING_MIN_NORM,
     INTEGER_ARRAYS,
@@ -86,6 +88,8 @@ class ControllerRuntime:
         placements: the animals, in the order of `compiled.scale`.
         variation: seeded stride-to-stride variation of every cycle (`quadpipe.controllers.runtime.variation`);
             None: none, every stride alike.
+        folded: run the program folded (`quadpipe.controllers.runtime.folding`: the same forces from
+            fewer instructions); False runs it as lowered, to check or time the folding.
     """
 
     def __init__(
@@ -94,6 +98,8 @@ class ControllerRuntime:
         model: mujoco.MjModel,
         placements: Sequence[Placement],
         variation: Variation | None = None,
+        *,
+        folded: bool = True,
     ):
         self.compiled, self.model, self.placements = compiled, model, list(placements)
         self.name = compiled.name
@@ -105,7 +111,8 @@ class ControllerRuntime:
         self._animal_of_body = np.full(model.nbody, -1)
         for index, row in enumerate(self._bodies):
             self._animal_of_body[row] = index
-        self.program = lower(compiled, self.gravity)
+        lowered = lower(compiled, self.gravity)
+        self.program = fold(lowered) if folded else lowered
         registers = np.zeros((self.program.registers, self.n, 3))
         for register, value in self.program.constants.items():
             registers[register] = value
@@ -123,7 +130,7 @@ class ControllerRuntime:
         """The first non-finite force or spring value an element computed (None: none so far)."""
         self._table_for: mujoco.MjData | None = None
         self._table: np.ndarray  # set with `_table_for` by `_address_table`
-        self._few_contacts = (np.zeros((1, 4), np.int32)[:, ::2], np.zeros((1, 18))[:, ::2])
+        self._contacts: tuple[np.ndarray, np.ndarray]  # set with `_table_for` by `_address_table`
         self._clock = (
             StrideClock(variation, len(self.program.cycles), self.n) if variation and variation.active else None
         )
@@ -279,9 +286,9 @@ class ControllerRuntime:
 
     def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:
         """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
-        ncon = data.ncon
-        geoms, frames = self._contact_arrays(data, ncon)
-        fault = run(self._address_table(data), self.dt, 0, last, finish, data.time, ncon, geoms, frames)
+        table = self._address_table(data)
+        geoms, frames = self._contacts
+        fault = run(table, self.dt, 0, last, finish, data.time, data.ncon, geoms, frames)
         if fault != NO_FAULT and self.fault is None:
             self.fault = self._describe_fault(fault)
 
@@ -294,26 +301,31 @@ class ControllerRuntime:
             element, what = program.spring_elements[fault - len(program.slots)], "a spring target, stiffness or damping"
         return f"element {element!r} of {self.name} computed {what} that is NaN or infinite"
 
-    def _contact_arrays(self, data: mujoco.MjData, ncon: int) -> tuple[np.ndarray, np.ndarray]:
-        """The geoms and frames of the contacts: views into MuJoCo's contact structs.
+    @staticmethod
+    def _contact_arrays(data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """The geoms and frames of every contact `data` can hold: strided views into MuJoCo's
+        contact structs, of which the kernel reads the first `ncon` rows.
 
-        Those views are strided; one of a single contact (or none) would count as
-        contiguous, a different argument type that numba would load a second kernel for.
-        So up to one contact is copied into a strided buffer of our own.
+        MuJoCo keeps its contacts at the start of the data's arena, so these views stay valid
+        for the data's lifetime: made once per data (`data.contact` makes its views anew on
+        every read, ~2 µs a step). Each has as many rows as the arena holds contacts (at least
+        two: one row would count as contiguous, a different argument type that numba would
+        load a second kernel for).
         """
-        if ncon >= 2:
-            contacts = data.contact
-            return contacts.geom, contacts.frame
-        geoms, frames = self._few_contacts
-        if ncon == 1:
-            geoms[0], frames[0] = data.contact.geom[0], data.contact.frame[0]
-        return geoms, frames
+        contacts = data.contact
+        rows = max(2, data.narena // contacts.geom.strides[0])
+
+        def every_row(view: np.ndarray) -> np.ndarray:
+            return np.lib.stride_tricks.as_strided(view, (rows, view.shape[1]), view.strides)
+
+        return every_row(contacts.geom), every_row(contacts.frame)
 
     def _address_table(self, data: mujoco.MjData) -> np.ndarray:
         """The kernel's address table (`kernel.address_table`): this runtime's arrays, then
         `data`'s and the model's (their addresses stay the same for the data's lifetime, and
-        the runtime keeps the data it was last run on)."""
+        the runtime keeps the data it was last run on, and its contact views, `_contacts`)."""
         if self._table_for is not data:
+            self._contacts = self._contact_arrays(data)
             mujoco_arrays = [getattr(data, name) for name in MUJOCO_ARRAYS[:-1]] + [self.model.dof_damping]
             self._table = address_table(
                 self._own_rows

@@ -1,0 +1,90 @@
+"""Folding a lowered controller (`quadpipe.controllers.runtime.folding`) drops work, never a force.
+
+Every shipped controller, folded and as lowered, is applied to the same dog state step after
+step: their forces, joint torques and damping must be equal. And folding must keep doing its job:
+the walk's tunables at 0 (`unload`, `landing_share`) and its terms multiplied by constants
+0 or 1 leave far fewer instructions than lowering emits.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import mujoco
+import numpy as np
+import pytest
+
+from quadpipe.controllers.language.compiler import CompiledController
+from quadpipe.controllers.runtime.folding import fold
+from quadpipe.controllers.runtime.lowering import lower
+from quadpipe.controllers.runtime.runtime import ControllerRuntime
+from quadpipe.core import configs
+from quadpipe.sim.simulation import Simulation
+from quadpipe.world import build_scene, load_scene
+from tests.conftest import built_animal
+
+STEPS = 150
+"""Physics steps compared per controller (0.3 s on the dog: feet land, machines switch)."""
+
+MIN_WALK_SAVING = 0.15
+"""Share of the walk's lowered instructions that folding removes at least (it removed 17 %)."""
+
+
+@functools.cache
+def dog_world() -> Simulation:
+    """The dog on flat ground, no controller."""
+    return Simulation(build_scene(load_scene("flat"), built_animal("dog")))
+
+
+def compiled(controller: str, **parameters: str) -> CompiledController:
+    """`controller` compiled for the dog, with parameter overrides (once per session)."""
+    return _compiled(controller, tuple(sorted(parameters.items())))
+
+
+@functools.cache
+def _compiled(controller: str, parameters: tuple[tuple[str, str], ...]) -> CompiledController:
+    return dog_world().compile_controller(controller, dict(parameters))[0]
+
+
+@pytest.mark.parametrize("controller", configs.available("controllers"))
+def test_folded_program_applies_the_same_forces(controller: str) -> None:
+    sim = dog_world()
+    sim.use_controller(None)
+    sim.reset()
+    program = compiled(controller)
+    model, data = sim.model, sim.data
+    folded = ControllerRuntime(program, model, sim.placements)
+    lowered = ControllerRuntime(program, model, sim.placements, folded=False)
+    assert len(folded.program.code) <= len(lowered.program.code)
+    for step in range(STEPS):
+        mujoco.mj_step1(model, data)
+        applied = []
+        for runtime in (lowered, folded):  # apply reads the state, writes only these three
+            data.xfrc_applied[:] = 0.0
+            data.qfrc_applied[:] = 0.0
+            runtime.apply(model, data)
+            applied.append((data.xfrc_applied.copy(), data.qfrc_applied.copy(), model.dof_damping.copy()))
+        for before, after in zip(*applied):
+            np.testing.assert_array_equal(after, before, err_msg=f"{controller}, step {step}")
+        mujoco.mj_step2(model, data)
+    assert folded.fault == lowered.fault
+    folded.release()
+
+
+def test_folding_removes_the_walks_dead_terms() -> None:
+    walk = lower(compiled("walk"), dog_world().model.opt.gravity)
+    folded = fold(walk)
+    assert len(folded.code) <= (1 - MIN_WALK_SAVING) * len(walk.code)
+    assert folded.registers < walk.registers
+    unloading = fold(lower(compiled("walk", unload="0.5"), dog_world().model.opt.gravity))
+    assert len(folded.code) < len(unloading.code), "a tunable at 0 still costs instructions"
+
+
+def test_a_spring_at_zero_stiffness_and_damping_is_dropped() -> None:
+    gravity = dog_world().model.opt.gravity
+    walk = fold(lower(compiled("walk"), gravity))
+    limp = fold(
+        lower(compiled("walk", toe_stiffness="0 bw*HP/rad", spring_damping="0 bw*HP*natural_time/rad"), gravity)
+    )
+    assert len(limp.code) < len(walk.code)
+    assert limp.slots == walk.slots, "every force slot stays (overlays and metrics read them)"
