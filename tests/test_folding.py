@@ -46,12 +46,27 @@ def _compiled(controller: str, parameters: tuple[tuple[str, str], ...]) -> Compi
     return dog_world().compile_controller(controller, dict(parameters))[0]
 
 
+MOVING_TARGET = (
+    "interp(t, [0 s, 0.1 s, 0.1 s, 0.3 s], [[1 HP, 0, 1 HP], [2 HP, 1 HP, 1 HP], [0, 1 HP, 1 HP], [1 HP, 0, 0]])"
+)
+"""A `point_target` target read from a table (`INTERP`: blocks of constant registers that
+folding renumbers), with a jump at 0.1 s, moving through the steps compared."""
+
+
 @pytest.mark.parametrize("controller", configs.available("controllers"))
 def test_folded_program_applies_the_same_forces(controller: str) -> None:
+    assert_same_forces(controller, compiled(controller))
+
+
+def test_a_folded_table_reads_the_same_points() -> None:
+    assert_same_forces("point_target with a table", compiled("point_target", target=MOVING_TARGET))
+
+
+def assert_same_forces(controller: str, program: CompiledController) -> None:
+    """`program`, folded and as lowered, applies the same forces to the dog step after step."""
     sim = dog_world()
     sim.use_controller(None)
     sim.reset()
-    program = compiled(controller)
     model, data = sim.model, sim.data
     folded = ControllerRuntime(program, model, sim.placements)
     lowered = ControllerRuntime(program, model, sim.placements, folded=False)

@@ -14,7 +14,8 @@ by 0. `fold(program)` runs three passes over the program:
 2. **Dead springs**: a spring whose stiffness and damping are both constant 0 adds nothing.
 3. **Dead code** (`_live`): an instruction whose result no kept instruction reads is
    dropped, and a state-machine block left empty loses its jump; the registers still read
-   are renumbered densely, so the register file shrinks with the program.
+   are renumbered densely (a table's blocks of constants stay whole and consecutive), so the
+   register file shrinks with the program.
 
 What changes: a term multiplied by a constant 0 is 0 even where the other factor would be
 NaN or infinite (that factor can never act, so its fault is not reported), and the sign of a
@@ -46,6 +47,7 @@ from quadpipe.controllers.runtime.kernel import (
     HEADING,
     HEIGHT,
     HORIZONTAL,
+    INTERP,
     JUMP_IF_NONE,
     LE,
     LT,
@@ -69,7 +71,7 @@ from quadpipe.controllers.runtime.kernel import (
 )
 from quadpipe.controllers.runtime.lowering import OPERANDS, Program
 
-DST, A, B, C = 1, 2, 3, 4
+DST, A, B, C, E = 1, 2, 3, 4, 6
 """Columns of an instruction (`kernel.CODE_WIDTH`): op, dst, a, b, c, d, e."""
 
 STATEFUL_OPS = frozenset((JUMP_IF_NONE, ZERO, SMOOTH, ADVANCE, TRANSITION, FORCE, SPRING))
@@ -77,7 +79,7 @@ STATEFUL_OPS = frozenset((JUMP_IF_NONE, ZERO, SMOOTH, ADVANCE, TRANSITION, FORCE
 
 _REGISTER_FIELDS: dict[int, tuple[int, ...]] = {
     VEC: (A, B, C), COMP: (A,), NORM: (A,), NORMALIZE: (A,), DOT: (A, B), CROSS: (A, B), ANGLE: (A, B),
-    HORIZONTAL: (A,), HEADING: (A,), BODYROT: (A,), HEIGHT: (A,), JUMP_IF_NONE: (A,), SMOOTH: (DST, A, B),
+    HORIZONTAL: (A,), INTERP: (A,), HEADING: (A,), BODYROT: (A,), HEIGHT: (A,), JUMP_IF_NONE: (A,), SMOOTH: (DST, A, B),
     ADVANCE: (B,), TRANSITION: (DST, A, B), FORCE: (A, B), SPRING: (A, B, C),
 }  # fmt: skip
 """The columns an op reads registers from, for the non-elementwise ops (other ops read none)."""
@@ -91,6 +93,12 @@ def read_fields(op: int) -> tuple[int, ...]:
     if op < VEC:
         return (A, B, C)[: OPERANDS.get(op, 3)]
     return _REGISTER_FIELDS.get(op, ())
+
+
+def table_blocks(row: np.ndarray) -> tuple[int, ...]:
+    """The columns of an `INTERP` instruction that hold the first register of a block of
+    constants (its breakpoints, its values), each `row[E]` registers long; none for other ops."""
+    return (B, C) if row[0] == INTERP else ()
 
 
 def writes_register(op: int) -> bool:
@@ -227,11 +235,12 @@ def fold(program: Program) -> Program:
         {int(row[f]) for row in code for f in read_fields(int(row[0]))}
         | {int(row[DST]) for row in code if writes_register(int(row[0]))}
         | {register for register, _ in program.sensors.values()}
+        | {int(row[f]) + k for row in code for f in table_blocks(row) for k in range(int(row[E]))}
     )
     renumber = {old: new for new, old in enumerate(registers)}
     for row in code:
         op = int(row[0])
-        for field in set(read_fields(op)) | ({DST} if writes_register(op) else set()):
+        for field in set(read_fields(op)) | ({DST} if writes_register(op) else set()) | set(table_blocks(row)):
             row[field] = renumber[int(row[field])]
         if op == JUMP_IF_NONE:
             row[B] = _next_kept(new_index, int(row[B]), len(code))
