@@ -71,6 +71,14 @@ def _code_shaped(expr: ast.expr) -> bool:
     )
 
 
+def _replaces_fields(func: ast.expr) -> bool:
+    """Whether a call is `dataclasses.replace`, whose keywords are the dataclass's fields (a
+    lowered `Program`'s `code` is its instructions, not an error code)."""
+    return (isinstance(func, ast.Name) and func.id == "replace") or (
+        isinstance(func, ast.Attribute) and func.attr == "replace" and ast.unparse(func.value) == "dataclasses"
+    )
+
+
 @dataclass
 class Callables:
     """What each name refers to: a set of code positions (None: takes no code)."""
@@ -155,7 +163,7 @@ class _CodeFinder(ast.NodeVisitor):
 
     def code_argument(self, node: ast.Call, where: str) -> ast.expr | None:
         for keyword in node.keywords:
-            if keyword.arg == "code":
+            if keyword.arg == "code" and not _replaces_fields(node.func):
                 return keyword.value
         positions = {index for index in self.positions(node.func) if index is not None}
         if len(positions) > 1:  # a name defined elsewhere with different signatures: where is a code?
