@@ -19,6 +19,7 @@ import yaml
 from quadpipe.analysis import analyze_clip
 from quadpipe.analysis.direction import DirectionReport, direction_reports, format_direction
 from quadpipe.clip.model import Clip
+from quadpipe.core import configs
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.world.direction import load_direction
 from quadpipe.world.schema import DIRECTION_SCHEMA_PATH, direction_json_schema, direction_schema_text
@@ -485,7 +486,7 @@ STOP_AND_GO = {
 """A walk of over 4 strides, a hold, a walk off from standing, a trot of over 4 strides, a stop."""
 
 
-@pytest.fixture(scope="module", params=["dog", "horse"])
+@pytest.fixture(scope="module", params=configs.available("animals"))
 def stop_and_go(request, tmp_path_factory) -> DirectionReport:
     animal = request.param
     path = write_direction(tmp_path_factory.mktemp(animal), animal, STOP_AND_GO)
@@ -530,8 +531,23 @@ def test_the_report_is_json_ready(stop_and_go: DirectionReport) -> None:
     assert json.loads(json.dumps(stop_and_go.to_dict()))["beats"][0]["kind"] == "move"
 
 
+LOOP_SHORTFALLS = {
+    "rat": "0.42 HP RMS off the figure-eight: its 0.77 HP bends are tighter than a rat can follow at a "
+    "walk (the direction-tight-bend warning names them)",
+}
+"""Animals that do not yet keep to the figure-eight, with their figures (strict expected failures)."""
+
+
+@pytest.mark.parametrize(
+    "animal",
+    [
+        pytest.param(animal, marks=pytest.mark.xfail(strict=True, reason=LOOP_SHORTFALLS[animal]))
+        if animal in LOOP_SHORTFALLS
+        else animal
+        for animal in configs.available("animals")
+    ],
+)
 @pytest.mark.slow
-@pytest.mark.parametrize("animal", ["dog", "horse"])
 def test_a_figure_eight_at_a_walk_stays_on_the_path(animal: str) -> None:
     scene = DIRECTIONS / "figure_eight.yaml"
     report = played(animal, None, str(scene), shot_length(animal, scene=str(scene)))
