@@ -73,24 +73,10 @@ def simulate(
     Example: quadpipe simulate --animal dog --controller walk --seconds 10 -o run.npz --diagram walk.png --variation 0.03
     |   quadpipe simulate -a rig.bvh --roles rig_roles.yaml --mass 25 -c walk -o rig_walk.bvh
     """
-    _bake_and_report(
-        BakeOptions(
-            animal=animal_source(animal, limits, roles, mass),
-            controller=controller,
-            scene=scene,
-            seconds=seconds,
-            outputs=(output,),
-            metrics=metrics,
-            parameters=tuple(parameters or ()),
-            fps=fps,
-            gait_report=gait_report,
-            diagram=diagram,
-            look=look_name(look),
-            skeleton=skeleton.value,
-            direction=direction,
-            variation=variation_of(variation, seed),
-        )
-    )
+    bake(
+        [output], animal, controller, scene, seconds, metrics, parameters, fps, gait_report, diagram, look,
+        limits, roles, mass, skeleton, direction, variation, seed,
+    )  # fmt: skip
 
 
 def bake(
