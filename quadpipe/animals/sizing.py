@@ -13,11 +13,9 @@ One rule per quantity, each a small function of the pelvis height HP (metres):
 - **Impedance**: `solimp` (0.95, 0.99, width) instead of MuJoCo's (0.9, 0.95, 1 mm): stiffer
   constraints, so a standing dog rests 0.6 mm into the floor (6 % of its bone radius) rather
   than 1.4 mm; the width over which impedance ramps up is 1 mm for the dog, scaled with HP.
-- **Time step**: MuJoCo needs `tau >= 2 * timestep` for its constraints to stay stable, but at
-  2 steps a landing foot travels a whole step into the floor before its contact acts (the rat
-  and the dog sank 3-9 % HP). So `tau` spans at least 4 steps: the thesis's fixed 1/120 s step
-  is split into as many equal substeps as that needs: one for the elephant, two for the dog,
-  the horse and the cow, three for the cat, nine for the rat.
+- **Time step**: MuJoCo needs `tau >= 2 * timestep` for its constraints to stay stable, so the
+  thesis's fixed 1/120 s step is split into as many equal substeps as that needs: one for the
+  dog and every larger animal, two for the cat, five (1/600 s) for the rat.
 """
 
 from __future__ import annotations
@@ -45,10 +43,8 @@ STEPS_PER_FRAME = 4
 FRAME_RATE = 30
 """Frames per second of clips: STEPS_PER_FRAME * FRAME_STEP_S = 1/30 s."""
 
-TAU_PER_STEP = 4.0
-"""The constraint time constant spans at least this many time steps: twice MuJoCo's stability
-bound (2), so that a foot landing at a natural velocity stops within the contact's width rather
-than a step below it (docs/gaits.md, "Clean feet")."""
+TAU_PER_STEP = 2.0
+"""MuJoCo's stability bound: the constraint time constant must be at least 2 time steps."""
 
 SOLVER_ITERATIONS = 32
 """The thesis needed at least ~32 constraint iterations (Appendix A)."""
