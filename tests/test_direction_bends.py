@@ -117,7 +117,7 @@ CIRCLES = [
 rat's walk, 1.7 HP, is tighter than its tightest)."""
 
 WIDE_TURNS = {
-    ("horse", 0.6): "trots a 3 HP circle at 3.41 HP (0.62 HP RMS off the path): its trunk turns 20-35 degrees "
+    ("horse", 0.6): "trots a 3 HP circle at 3.42 HP (0.63 HP RMS off the path): its trunk turns 20-35 degrees "
     "into the bend, but its legs carry it sideways out of it",
 }
 """Circles an animal goes round wider than asked today, with their figures (a stronger
@@ -183,7 +183,7 @@ def turn_in_place(animal: str) -> dict:
 
 
 TURN_SHORTFALLS = {
-    "rat": "turns 159 of 180 degrees and wanders 1.50 HP: its stepping round the mark does not hold it there yet",
+    "rat": "turns 159 of 180 degrees and wanders 1.57 HP: its stepping round the mark does not hold it there yet",
 }
 """Animals whose turn in place misses the issue's figures today, with their figures."""
 
