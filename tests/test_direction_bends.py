@@ -182,22 +182,8 @@ def turn_in_place(animal: str) -> dict:
     }
 
 
-TURN_SHORTFALLS = {
-    "rat": "turns 159 of 180 degrees and wanders 1.57 HP: its stepping round the mark does not hold it there yet",
-}
-"""Animals whose turn in place misses the issue's figures today, with their figures."""
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "animal",
-    [
-        pytest.param(animal, marks=pytest.mark.xfail(strict=True, reason=TURN_SHORTFALLS[animal]))
-        if animal in TURN_SHORTFALLS
-        else animal
-        for animal in available("animals")
-    ],
-)
+@pytest.mark.parametrize("animal", available("animals"))
 def test_every_animal_turns_in_place(tmp_path_factory: pytest.TempPathFactory, animal: str) -> None:
     clip, _, _ = played(animal, yaml.safe_dump(turn_in_place(animal)), tmp_path_factory.getbasetemp())
     (report,) = direction_reports(clip)
