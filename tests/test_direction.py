@@ -531,22 +531,7 @@ def test_the_report_is_json_ready(stop_and_go: DirectionReport) -> None:
     assert json.loads(json.dumps(stop_and_go.to_dict()))["beats"][0]["kind"] == "move"
 
 
-LOOP_SHORTFALLS = {
-    "rat": "0.42 HP RMS off the figure-eight: its 0.77 HP bends are tighter than a rat can follow at a "
-    "walk (the direction-tight-bend warning names them)",
-}
-"""Animals that do not yet keep to the figure-eight, with their figures (strict expected failures)."""
-
-
-@pytest.mark.parametrize(
-    "animal",
-    [
-        pytest.param(animal, marks=pytest.mark.xfail(strict=True, reason=LOOP_SHORTFALLS[animal]))
-        if animal in LOOP_SHORTFALLS
-        else animal
-        for animal in configs.available("animals")
-    ],
-)
+@pytest.mark.parametrize("animal", configs.available("animals"))
 @pytest.mark.slow
 def test_a_figure_eight_at_a_walk_stays_on_the_path(animal: str) -> None:
     scene = DIRECTIONS / "figure_eight.yaml"

@@ -17,7 +17,7 @@ from quadpipe.core.errors import Issue, Location, QuadpipeError
 from quadpipe.quantities import units
 from quadpipe.world.direction import DirectionSpec, bend_warnings, body_length, scene_timelines
 from quadpipe.world.format import AnimalGrid, Ground
-from quadpipe.world.goals import check_direction_length, direction_parameters, goal_text
+from quadpipe.world.goals import check_direction_length, direction_parameters, goal_text, look_ahead
 from quadpipe.world.loading import SceneSpec, entry_names, is_path
 from quadpipe.world.placement import Placement, attach_animals, world_spec
 from quadpipe.world.props import PropStart, add_props
@@ -148,7 +148,9 @@ def build_scene(
     lengths = {placement.name: body_length(placement.built.animal) for placement in placements}
     timelines = scene_timelines(scene, values, [placement.name for placement in placements], scale, direction, lengths)
     directions = {
-        p.name: direction_parameters(timelines[p.name], *_sizes(p.built)) for p in placements if p.name in timelines
+        p.name: direction_parameters(timelines[p.name], *_sizes(p.built), look_ahead(p.built.animal))
+        for p in placements
+        if p.name in timelines
     }
     for name, parameters in directions.items():
         check_direction_length(name, parameters, (direction or scene).locate(("direction", name)))

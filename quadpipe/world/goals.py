@@ -8,12 +8,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from quadpipe.animals.library import Animal
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.core.limits import MAX_TABLE_POINTS
 from quadpipe.core.yamlio import dotted
 from quadpipe.quantities.expressions import TIME_VARIABLE, ExprError, parse
 from quadpipe.world.loading import SceneSpec
-from quadpipe.world.timeline import Segment, Timeline
+from quadpipe.world.timeline import Segment, Timeline, speed_through
 from quadpipe.world.values import Values
 
 
@@ -83,8 +84,9 @@ def number_text(value: float, digits: int = 10) -> str:
     return "0" if text == "-0" else text
 
 
-CARROT_HP = 2.5
-"""How far ahead of the reference point along the path the animal steers, pelvis heights."""
+LOOK_BEYOND_THORAX_HP = 1.9
+"""How far beyond its thorax the point an animal steers toward is, pelvis heights (see
+`look_ahead`)."""
 
 STAND_RAMP_NATURAL = 1.0
 """How long the gait takes to fade into a stand (and back), natural times."""
@@ -110,13 +112,28 @@ DIRECTION_DIGITS = 7
 """Significant digits of the numbers of a direction's expressions (a micrometre on a 10 m path)."""
 
 
-def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> dict[str, str]:
-    """The controller parameters that play a timeline (see configs/controllers/direct.yaml):
+def look_ahead(animal: Animal) -> float:
+    """How far along the path ahead of its place an animal steers, metres: from its pelvis
+    to its thorax (the steering couple aims the trunk from the thorax) and
+    `LOOK_BEYOND_THORAX_HP` beyond; 2.5 HP for the dog, 3.4 HP for the rat, whose long
+    trunk (1.5 HP) left it aiming 1 HP ahead of its thorax, weaving round the figure-eight
+    (0.42 HP RMS off it; 0.24 HP with this)."""
+    skeleton = animal.skeleton
+    trunk = float(np.linalg.norm((skeleton["thorax"].start - skeleton["pelvis"].start)[:2]))
+    return trunk + LOOK_BEYOND_THORAX_HP * animal.pelvis_height
+
+
+def direction_parameters(timeline: Timeline, hp: float, natural_time: float, ahead: float) -> dict[str, str]:
+    """The controller parameters that play a timeline (see configs/controllers/direct.yaml),
+    for an animal `hp` metres high, `natural_time` seconds, steering `ahead` metres along
+    the path (`look_ahead`):
 
     - `path_point`: where the pelvis should be now, on the path;
-    - `path_goal`: the point `CARROT_HP` further along, which the animal steers toward (during
+    - `path_goal`: the point `ahead` further along, which the animal steers toward (during
       a turn, swinging round the turn's mark);
     - `path_tangent`: the path's direction at `path_point` (a unit vector);
+    - `path_yaw_rate`: how fast that direction turns as `path_point` goes round the path's
+      bends (rad/s, counter-clockwise; see `_yaw_rate_text`);
     - `path_speed`: the asked speed now (0 while standing);
     - `path_stand`: 0 while moving, 1 while standing, a smooth ramp between;
     - `path_look` and `path_looking`: the point a beat looks at, and 1 while one does (0
@@ -134,11 +151,10 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float) -> 
     return {
         "path_point": timed_points_text(timeline, 0.0),
         "path_goal": " + ".join(
-            text
-            for text in (timed_points_text(timeline, CARROT_HP * hp), _turns_text(timeline, CARROT_HP * hp))
-            if text
+            text for text in (timed_points_text(timeline, ahead), _turns_text(timeline, ahead)) if text
         ),
         "path_tangent": _tangent_text(timeline),
+        "path_yaw_rate": _yaw_rate_text(timeline),
         "path_speed": _number_steps_text(
             [(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"
         ),
@@ -186,15 +202,20 @@ def timed_points_text(timeline: Timeline, ahead: float) -> str:
     lengths = timeline.lengths
     turns = [seg for seg in timeline.segments if seg.kind == "turn"]
     marks = np.concatenate([lengths, [seg.s0 for seg in turns]]) - ahead
-    knots = timeline.knots()
-    times = {timeline.end} | {seg.end + _handover(seg) for seg in turns}
+    times = _passing_times(timeline.knots(), marks) | {timeline.end} | {seg.end + _handover(seg) for seg in turns}
+    ordered = np.array(sorted(times))
+    return goal_expression(list(zip(ordered, _ahead_points(timeline, turns, ordered, ahead))), DIRECTION_DIGITS)
+
+
+def _passing_times(knots: Sequence[tuple[float, float]], marks: np.ndarray) -> set[float]:
+    """The times of the distance's corners (`Timeline.knots`) and those at which the
+    distance passes each of `marks` (metres along the path), seconds."""
+    times = {float(when) for when, _ in knots}
     for (t0, s0), (t1, s1) in zip(knots, knots[1:]):
-        times.add(t0)
         if s1 > s0:
             inside = marks[(marks > s0) & (marks < s1)]
             times |= set(t0 + (inside - s0) / (s1 - s0) * (t1 - t0))
-    ordered = np.array(sorted(times))
-    return goal_expression(list(zip(ordered, _ahead_points(timeline, turns, ordered, ahead))), DIRECTION_DIGITS)
+    return times
 
 
 def _ahead_points(timeline: Timeline, turns: Sequence[Segment], times: np.ndarray, ahead: float) -> np.ndarray:
@@ -257,6 +278,29 @@ def _tangent_text(timeline: Timeline) -> str:
         when = knot_t[0] if j == 0 else np.interp(lengths[k], knot_s[j - 1 : j + 1], knot_t[j - 1 : j + 1])
         directions.append((float(when), _plain_vector(units[k])))
     return steps_text(directions)
+
+
+def _yaw_rate_text(timeline: Timeline) -> str:
+    """The path's heading's rate of turn at the reference point, in time (rad/s): each corner
+    of the polyline the animal moves through turns the heading steadily from the middle of
+    the piece before it to the middle of the piece after it (a corner it reaches standing,
+    where a turn in place turns it, none; a piece of no length keeps the heading before it)."""
+    points, lengths = timeline.points, timeline.lengths
+    if len(points) < 3:
+        return "0 rad/s"
+    pieces = np.diff(points, axis=0)
+    real = np.linalg.norm(pieces, axis=1) > 0
+    last_real = np.maximum.accumulate(np.where(real, np.arange(len(pieces)), 0))
+    headings = np.unwrap(np.arctan2(pieces[last_real, 1], pieces[last_real, 0]))
+    middles = (lengths[:-1] + lengths[1:]) / 2
+    moving = np.array([speed_through(timeline.segments, float(s)) > 0 for s in lengths[1:-1]])
+    turned = np.concatenate([[0.0], np.cumsum(np.diff(headings) * moving)])
+    knots = timeline.knots()
+    knot_t, knot_s = np.array([k[0] for k in knots]), np.array([k[1] for k in knots])
+    ordered = np.array(sorted(_passing_times(knots, middles)))
+    heading = np.interp(np.interp(ordered, knot_t, knot_s), middles, turned)
+    rates = np.diff(heading) / np.maximum(np.diff(ordered), 1e-12)
+    return _number_steps_text([*zip(ordered[:-1], rates), (float(ordered[-1]), 0.0)], "rad/s")
 
 
 def _number_steps_text(values: Sequence[tuple[float, float]], unit: str) -> str:

@@ -324,7 +324,7 @@ def tight_bends(timeline: Timeline, body_length: float) -> list[Bend]:
 def _tight_corner(timeline: Timeline, k: int, body_length: float) -> Bend | None:
     """Corner `k` of a timeline's polyline as a `Bend`, if the animal moves through it and
     it is tighter than it can follow (see `tight_bends`); None otherwise."""
-    speed = _speed_through(timeline.segments, float(timeline.lengths[k]))
+    speed = speed_through(timeline.segments, float(timeline.lengths[k]))
     radius = corner_radius(timeline.points, k)
     if speed <= 0:
         return None
@@ -427,7 +427,7 @@ def _speed_pieces(
     return pieces
 
 
-def _speed_through(segments: Sequence[Segment], distance: float) -> float:
+def speed_through(segments: Sequence[Segment], distance: float) -> float:
     """The asked speed of a move passing `distance` along the path (the faster of two moves
     that meet there), 0 where no move passes it."""
     speeds = [
