@@ -171,6 +171,7 @@ def measure(skeleton: Skeleton, name: str) -> float:
 
 
 def band_cases() -> list:
+    """Every band, the known `SHORTFALLS` as strict expected failures."""
     return [
         pytest.param(
             band,
