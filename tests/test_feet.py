@@ -32,6 +32,7 @@ SHORTFALLS: dict[str, dict[tuple[str, str], str]] = {
     "slip": {
         ("bear", "walk"): "a foot slides 3.4 % HP in a stance",
         ("cow", "walk"): "a foot slides 3.7 % HP in a stance",
+        ("dog", "walk"): "a hind foot slides 3.2 % HP in a stance (since its straighter hind legs)",
         ("lion", "walk"): "a foot slides 3.2 % HP in a stance",
         ("pig", "walk"): "a foot slides 3.2 % HP in a stance",
         ("rat", "walk"): "a foot slides 7.3 % HP in a stance",
@@ -81,6 +82,7 @@ SHORTFALLS: dict[str, dict[tuple[str, str], str]] = {
         ("pig", "walk"): "a swinging foot comes down to 0.6 % HP above the ground mid-swing",
         ("bear", "trot"): "a swinging foot comes down to the ground mid-swing",
         ("cat", "trot"): "a swinging foot dips 0.1 % HP into the ground mid-swing",
+        ("dog", "trot"): "a swinging fore foot comes down to the ground mid-swing (since its straighter hind legs)",
         ("elephant", "trot"): "a swinging foot dips 0.1 % HP into the ground mid-swing",
         ("lion", "trot"): "a swinging foot dips 0.3 % HP into the ground mid-swing",
         ("pig", "trot"): "a swinging foot comes down to 0.8 % HP above the ground mid-swing",
