@@ -576,11 +576,6 @@ def touches_the_animal(positions: np.ndarray, fps: float, hp: float) -> bool:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="17 of the 20 boxes touch the dog since its straighter standing hind legs (18 before, at the "
-    "threshold); all 20 throws are recovered",
-)
 def test_the_walking_dog_hit_by_20_random_boxes_is_up_and_walking_within_3_s():
     clip = robustness_clip()
     track = clip.animals[0]
@@ -590,16 +585,29 @@ def test_the_walking_dog_hit_by_20_random_boxes_is_up_and_walking_within_3_s():
     walk_speed = math.sqrt(0.15 * GRAVITY * hp)  # configs/controllers/walk.yaml: froude 0.15
     boxes = thrown_boxes(clip)
     assert len(boxes) == THROWS
-    hits = recovered = 0
-    for thrown, positions in boxes:
-        hits += touches_the_animal(positions, clip.fps, hp)
+    recovered = 0
+    for thrown, _ in boxes:
         back = thrown + round(RECOVERY_S * fps)
         speed = np.linalg.norm(pelvis[back + fps // 2, :2] - pelvis[back - fps // 2, :2])
         recovered += bool(
             pelvis[back, 2] > MIN_PELVIS_HP * hp and tilt[back] < UPRIGHT_DEG and speed > WALKING_SHARE * walk_speed
         )
-    assert hits >= MIN_RECOVERED  # the boxes do hit it
     assert recovered >= MIN_RECOVERED
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="17 of the 20 boxes touch the dog since its straighter standing hind legs (18 before, at the "
+    "threshold: docs/gaits.md, 'Standing poses')",
+)
+def test_the_random_boxes_do_hit_the_walking_dog():
+    """The robustness series means something only if its boxes reach the dog: at least as many
+    touch it (turned or stopped above the ground) as the recovery test asks to recover."""
+    clip = robustness_clip()
+    hp = clip.animals[0].pelvis_height
+    hits = sum(touches_the_animal(positions, clip.fps, hp) for _, positions in thrown_boxes(clip))
+    assert hits >= MIN_RECOVERED
 
 
 # --------------------------------------------------------------------------- limbs that bear weight (#13)
