@@ -31,7 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from quadpipe.controllers.runtime.kernel import (
+from quadpipe.controllers.runtime.lowering import OPERANDS, Program
+from quadpipe.controllers.runtime.ops import (
     ADD,
     ADVANCE,
     AND,
@@ -69,10 +70,9 @@ from quadpipe.controllers.runtime.kernel import (
     VECTOR_RESULT,
     ZERO,
 )
-from quadpipe.controllers.runtime.lowering import OPERANDS, Program
 
 DST, A, B, C, E = 1, 2, 3, 4, 6
-"""Columns of an instruction (`kernel.CODE_WIDTH`): op, dst, a, b, c, d, e."""
+"""Columns of an instruction (`ops.CODE_WIDTH`): op, dst, a, b, c, d, e."""
 
 STATEFUL_OPS = frozenset((JUMP_IF_NONE, ZERO, SMOOTH, ADVANCE, TRANSITION, FORCE, SPRING))
 """Ops kept whether or not their result is read: they change state, forces or control flow."""

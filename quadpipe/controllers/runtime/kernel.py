@@ -9,7 +9,8 @@ component (a condition is 1.0 or 0.0). Constants are written into their register
 when the program is built, and never overwritten.
 
 Instructions: rows of `code`, `(op, dst, a, b, c, d, e)`; `a`, `b`, `c` are registers for
-the arithmetic ops, and table indices or jump targets for the others (see each op). An
+the arithmetic ops, and table indices or jump targets for the others (each op is described
+in `quadpipe.controllers.runtime.ops`, with the arithmetic of the elementwise ones). An
 elementwise op's `e` holds the vector flags: which of its result and operands are vectors
 (a scalar operand of a vector op is used for all three components).
 
@@ -36,10 +37,40 @@ import numba
 import numpy as np
 
 from quadpipe.controllers.runtime.mjlib import mj_ray
-from quadpipe.controllers.runtime.views import ints1, ints2, reals1, reals2, reals3
-
-ZERO_NORM = 1e-12
-"""Vectors shorter than this have no direction (as in `expressions.ZERO_NORM`)."""
+from quadpipe.controllers.runtime.ops import (
+    ADVANCE,
+    ANGLE,
+    BODYROT,
+    COMP,
+    CONTACT,
+    CROSS,
+    DOT,
+    FORCE,
+    GROUND_NORMAL,
+    HEADING,
+    HEIGHT,
+    HORIZONTAL,
+    INTERP,
+    JUMP_IF_NONE,
+    MASK,
+    NORM,
+    NORMALIZE,
+    PHASE,
+    POINT,
+    SMOOTH,
+    SPRING,
+    TIME,
+    TIS,
+    TRANSITION,
+    VEC,
+    VECTOR_RESULT,
+    VELOCITY,
+    ZERO,
+    ZERO_NORM,
+    elementwise,
+    wrap,
+)
+from quadpipe.controllers.runtime.views import int32s2, ints1, ints2, reals1, reals2, reals3
 
 HEADING_MIN_NORM = 1e-9
 """Below this horizontal length, the pelvis-to-thorax direction is undefined: +x is used."""
@@ -50,9 +81,6 @@ NORMAL_MIN_NORM = 1e-9
 MIN_PERIOD_S = 1e-9
 """Shortest cycle period; a shorter (or zero) one is clamped to it."""
 
-LEG_DUTY_MARGIN = 1e-6
-"""`leg_sweep` and `leg_lift` keep the duty factor this far inside (0, 1)."""
-
 LEG_COUNT = 4
 
 WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
@@ -62,51 +90,25 @@ WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
 DOWN = -np.array([0.0, 0.0, 1.0])
 """Direction of a ground ray."""
 
-VECTOR_RESULT, VECTOR_A, VECTOR_B, VECTOR_C = 1, 2, 4, 8
-"""the vector flags of an elementwise op (its `e`): the result, operand a, b, c are vectors."""
-
-# Opcodes. Arithmetic (dst, a, b, c are registers), elementwise (see `VECTOR_RESULT`).
-ADD, SUB, MUL, DIV, POW, MIN, MAX, ATAN2 = 1, 2, 3, 4, 5, 6, 7, 8
-LT, LE, GT, GE, AND, OR, STEP = 9, 10, 11, 12, 13, 14, 15
-NEG, NOT, SIN, COS, TAN, ASIN, ACOS, ATAN, SQRT, EXP, LOG, ABS, SIGN, WRAP = range(16, 30)
-CLAMP, SMOOTHSTEP, MIX, SELECT, LEG_SWEEP, LEG_LIFT = 30, 31, 32, 33, 34, 35
-# Vector ops (dst, a, b are registers; COMP's b is the component index).
-VEC, COMP, NORM, NORMALIZE, DOT, CROSS, ANGLE, HORIZONTAL = 40, 41, 42, 43, 44, 45, 46, 47
-# Tables: INTERP(dst, a = x, b = first of the breakpoints' registers, c = first of the values',
-# e = their number): the table at x (see `_interp`).
-INTERP = 48
-# Frames: HEADING(dst, a); BODYROT(dst, a, b = row of `frame_body`).
-HEADING, BODYROT = 50, 51
-# Simulation reads: POINT/VELOCITY(dst, a = row of `point_body`); CONTACT(dst, a = leg);
-# PHASE(dst, a = cycle); TIS(dst, a = machine); TIME(dst); GROUND_NORMAL(dst, a = leg bits);
-# MASK(dst, a = machine, b = state); HEIGHT(dst, a = point register: its height above the ground).
-POINT, VELOCITY, CONTACT, PHASE, TIS, TIME, GROUND_NORMAL, MASK, HEIGHT = 60, 61, 62, 63, 64, 65, 66, 67, 68
-# Control: JUMP_IF_NONE(a = mask register, b = target); ZERO(dst).
-JUMP_IF_NONE, ZERO = 70, 71
-# State: SMOOTH(dst = sensor register, a = raw, b = time constant, c = sensor);
-# ADVANCE(a = cycle, b = period register);
-# TRANSITION(dst = switched register, a = delay, b = condition, c = machine, d = target state,
-# e = bit mask of the source states).
-SMOOTH, ADVANCE, TRANSITION = 80, 81, 82
-# Forces: FORCE(dst = slot, a = point register, b = force register, e = 1: its opposite);
-# SPRING(dst = spring, a = target angle, b = stiffness, c = damping).
-FORCE, SPRING = 90, 91
-
 NO_FAULT = -1
 """What `run` returns when every force and spring value was finite; else it returns the first
 force slot with a non-finite force, or the number of slots plus the first such spring."""
 
-CODE_WIDTH = 7
-"""Columns of an instruction: op, dst, a, b, c, d, e."""
+CODE_DTYPE = np.int32
+"""The program's integer type: every field (an opcode, a register, a row of a table, a jump
+target, a bit mask of at most 31 states) fits, and the instructions streamed through the cache
+each step take half the bytes of int64 (`program_array`). The program is row `CODE` (0) of
+the address table."""
 
+CODE = 0
 
 INTEGER_ARRAYS = (
-    "code", "point_body", "frame_body", "leg_of_geom", "animal_of_geom", "heading_points", "spring_start",
+    "point_body", "frame_body", "leg_of_geom", "animal_of_geom", "heading_points", "spring_start",
     "spring_dof", "spring_qpos", "spring_twist", "slot_body", "body_root", "state", "sensor_ready",
 )  # fmt: skip
-"""The int64 arrays of a runtime, rows of the address table (`address_table`) in this order."""
-(CODE, POINT_BODY, FRAME_BODY, LEG_OF_GEOM, ANIMAL_OF_GEOM, HEADING_POINTS, SPRING_START, SPRING_DOF,
- SPRING_QPOS, SPRING_TWIST, SLOT_BODY, BODY_ROOT, STATE, SENSOR_READY) = range(len(INTEGER_ARRAYS))  # fmt: skip
+"""The int64 arrays of a runtime, rows of the address table (`address_table`) in this order, after `CODE`."""
+(POINT_BODY, FRAME_BODY, LEG_OF_GEOM, ANIMAL_OF_GEOM, HEADING_POINTS, SPRING_START, SPRING_DOF,
+ SPRING_QPOS, SPRING_TWIST, SLOT_BODY, BODY_ROOT, STATE, SENSOR_READY) = range(1, 1 + len(INTEGER_ARRAYS))  # fmt: skip
 
 REAL_ARRAYS = (
     "registers", "point_offset", "base_damping", "slot_point", "slot_force", "phase", "time_in_state",
@@ -114,16 +116,17 @@ REAL_ARRAYS = (
 )  # fmt: skip
 """The float64 arrays of a runtime, rows of the address table after `INTEGER_ARRAYS`."""
 (REGISTERS, POINT_OFFSET, BASE_DAMPING, SLOT_POINT, SLOT_FORCE, PHASES, TIME_IN_STATE, DAMPING, CONTACTS,
- NORMALS, HEADING_FRAMES) = range(len(INTEGER_ARRAYS), len(INTEGER_ARRAYS) + len(REAL_ARRAYS))  # fmt: skip
+ NORMALS, HEADING_FRAMES) = range(1 + len(INTEGER_ARRAYS), 1 + len(INTEGER_ARRAYS) + len(REAL_ARRAYS))  # fmt: skip
 
 MUJOCO_ARRAYS = (
     "xpos", "xmat", "xipos", "cvel", "subtree_com", "qpos", "qfrc_applied", "xfrc_applied", "dof_damping",
 )  # fmt: skip
 """The float64 arrays of MuJoCo's data (and the model's `dof_damping`), rows of the address
-table after `REAL_ARRAYS`; then two rows hold the addresses of the model and the data
+table after `REAL_ARRAYS`; then two rows hold MuJoCo's contacts (`CONTACT_GEOMS`,
+`CONTACT_FRAMES`: see `contact_row`), and two the addresses of the model and the data
 themselves (`MODEL`, `DATA`, for `mj_ray`)."""
-(XPOS, XMAT, XIPOS, CVEL, SUBTREE_COM, QPOS, QFRC, XFRC, DOF_DAMPING, MODEL, DATA) = range(
-    len(INTEGER_ARRAYS) + len(REAL_ARRAYS), len(INTEGER_ARRAYS) + len(REAL_ARRAYS) + len(MUJOCO_ARRAYS) + 2
+(XPOS, XMAT, XIPOS, CVEL, SUBTREE_COM, QPOS, QFRC, XFRC, DOF_DAMPING, CONTACT_GEOMS, CONTACT_FRAMES, MODEL, DATA) = (
+    range(REGISTERS + len(REAL_ARRAYS), REGISTERS + len(REAL_ARRAYS) + len(MUJOCO_ARRAYS) + 4)
 )  # fmt: skip
 
 TABLE_WIDTH = 4
@@ -144,112 +147,37 @@ def address_row(array: np.ndarray, dtype: type) -> tuple[int, int, int, int]:
     return (array.ctypes.data, shape[0], shape[1], shape[2])
 
 
+def program_array(code: np.ndarray) -> np.ndarray:
+    """A program's instructions as the kernel reads them: C-contiguous `CODE_DTYPE`.
+
+    Raises:
+        ValueError: a field does not fit (a machine of more than 31 states, or some 2**31 registers).
+    """
+    limits = np.iinfo(CODE_DTYPE)
+    if code.size and (code.min() < limits.min or code.max() > limits.max):
+        raise ValueError(f"a controller program field is beyond the kernel's {np.dtype(CODE_DTYPE)} range")
+    return np.ascontiguousarray(code, CODE_DTYPE)
+
+
+def contact_row(view: np.ndarray) -> tuple[int, int, int, int]:
+    """The address table row of a field of MuJoCo's contact structs (`view`: a strided view, a
+    row per contact, of int32 geoms or float64 frames): row c of the kernel's view starts at
+    contact c's field, its whole struct wide, so its first columns are that field.
+
+    Raises:
+        ValueError: the struct's size is not a whole number of the field's items.
+    """
+    rows, stride = view.shape[0], view.strides[0]
+    if stride % view.itemsize or view.strides[1] != view.itemsize:
+        raise ValueError(f"contact structs of {stride} bytes are not a whole number of {view.dtype} items")
+    return (view.ctypes.data, rows, stride // view.itemsize, 1)
+
+
 def address_table(rows: Sequence[tuple[int, int, int, int]]) -> np.ndarray:
     """The kernel's address table: a row `(address, d0, d1, d2)` per array (`address_row`), in
-    the order `INTEGER_ARRAYS`, `REAL_ARRAYS`, `MUJOCO_ARRAYS`, then the model and the data
+    the order `CODE`, `INTEGER_ARRAYS`, `REAL_ARRAYS`, `MUJOCO_ARRAYS`, the contacts (`contact_row`), then the model and the data
     (`(address, 0, 0, 0)`). The caller keeps every array alive while the kernel runs on the table."""
     return np.array(rows, dtype=np.int64).reshape(-1, TABLE_WIDTH)
-
-
-@numba.njit(cache=True)
-def _wrap(x: float) -> float:
-    """x modulo 1, as numpy's `mod` computes it (the same single rounding)."""
-    return x - math.floor(x)
-
-
-@numba.njit(cache=True)
-def _smoothstep(e0: float, e1: float, x: float) -> float:
-    if e1 == e0:
-        return 1.0 if x >= e0 else 0.0
-    u = min(max((x - e0) / (e1 - e0), 0.0), 1.0)
-    return u * u * (3.0 - 2.0 * u)
-
-
-@numba.njit(cache=True)
-def _duty(duty: float) -> float:
-    return min(max(duty, LEG_DUTY_MARGIN), 1.0 - LEG_DUTY_MARGIN)
-
-
-@numba.njit(cache=True)
-def _elementwise(op: int, x: float, y: float, z: float) -> float:
-    """One component of an arithmetic op on operands x, y, z."""
-    if op == ADD:
-        return x + y
-    if op == SUB:
-        return x - y
-    if op == MUL:
-        return x * y
-    if op == DIV:
-        return x / y if y != 0.0 else 0.0
-    if op == POW:
-        return x**y
-    if op == MIN:
-        return x if x < y else y
-    if op == MAX:
-        return x if x > y else y
-    if op == ATAN2:
-        return math.atan2(x, y)
-    if op == LT:
-        return 1.0 if x < y else 0.0
-    if op == LE:
-        return 1.0 if x <= y else 0.0
-    if op == GT:
-        return 1.0 if x > y else 0.0
-    if op == GE:
-        return 1.0 if x >= y else 0.0
-    if op == AND:
-        return 1.0 if (x != 0.0 and y != 0.0) else 0.0
-    if op == OR:
-        return 1.0 if (x != 0.0 or y != 0.0) else 0.0
-    if op == STEP:
-        return 1.0 if y >= x else 0.0
-    if op == NEG:
-        return -x
-    if op == NOT:
-        return 1.0 if x == 0.0 else 0.0
-    if op == SIN:
-        return math.sin(x)
-    if op == COS:
-        return math.cos(x)
-    if op == TAN:
-        return math.tan(x)
-    if op == ASIN:
-        return math.asin(min(max(x, -1.0), 1.0))
-    if op == ACOS:
-        return math.acos(min(max(x, -1.0), 1.0))
-    if op == ATAN:
-        return math.atan(x)
-    if op == SQRT:
-        return math.sqrt(max(x, 0.0))
-    if op == EXP:
-        return math.exp(x)
-    if op == LOG:
-        return math.log(max(x, ZERO_NORM))
-    if op == ABS:
-        return abs(x)
-    if op == SIGN:
-        return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else x)
-    if op == WRAP:
-        return _wrap(x)
-    if op == CLAMP:
-        return min(max(x, y), z)
-    if op == SMOOTHSTEP:
-        return _smoothstep(x, y, z)
-    if op == MIX:
-        return x + (y - x) * z
-    if op == SELECT:
-        return y if x != 0.0 else z
-    if op == LEG_SWEEP:
-        duty = _duty(y)
-        if x < duty:
-            return 1.0 - 2.0 * x / duty
-        return 2.0 * _smoothstep(duty, 1.0, x) - 1.0
-    if op == LEG_LIFT:
-        duty = _duty(y)
-        if x < duty:
-            return 0.0
-        return math.sin(math.pi * min(max((x - duty) / (1.0 - duty), 0.0), 1.0))
-    return math.nan
 
 
 @numba.njit(cache=True)
@@ -364,8 +292,7 @@ def _headings(
 
 @numba.njit(cache=True, nogil=True)
 def run(
-    table: np.ndarray, dt: float, first: int, last: int, finish: bool, time: float, ncon: int,
-    contact_geoms: np.ndarray, contact_frames: np.ndarray,
+    table: np.ndarray, dt: float, first: int, last: int, finish: bool, time: float, ncon: int
 ) -> int:  # fmt: skip
     """Run instructions `first` to `last` of a controller program (see the module docstring).
 
@@ -373,13 +300,13 @@ def run(
     program, the registers, the runtime's tables and state, and MuJoCo's own arrays (forces
     are added into `xfrc_applied` and `qfrc_applied`, damping written into the model's
     `dof_damping`), and the addresses of the model and the data, for MuJoCo's ray casts
-    (`HEIGHT`). The other arguments change every call; `contact_geoms` and `contact_frames`
-    have `ncon` rows (or more: the rest is ignored).
+    (`HEIGHT`), and MuJoCo's contacts, of which the first `ncon` are read. The other arguments
+    change every call.
 
     A force or spring value that is NaN or infinite is not applied: `run` returns where it
     was (see `NO_FAULT`), for the runtime to report.
     """
-    code, reg = ints2(table, CODE), reals3(table, REGISTERS)
+    code, reg = int32s2(table, CODE), reals3(table, REGISTERS)
     n = reg.shape[1]
     point_body, frame_body = ints2(table, POINT_BODY), ints2(table, FRAME_BODY)
     leg_of_geom, animal_of_geom = ints1(table, LEG_OF_GEOM), ints1(table, ANIMAL_OF_GEOM)
@@ -396,6 +323,7 @@ def run(
     cvel, subtree_com, qpos = reals2(table, CVEL), reals2(table, SUBTREE_COM), reals1(table, QPOS)
     qfrc, xfrc, dof_damping = reals1(table, QFRC), reals2(table, XFRC), reals1(table, DOF_DAMPING)
     model, data = table[MODEL, 0], table[DATA, 0]
+    contact_geoms, contact_frames = int32s2(table, CONTACT_GEOMS), reals2(table, CONTACT_FRAMES)
     _contacts(ncon, contact_geoms, contact_frames, leg_of_geom, animal_of_geom, contact, normals)
     _headings(xpos, xmat, point_body, point_offset, heading_points[0], heading_points[1], heading)
     if finish:
@@ -415,11 +343,14 @@ def run(
         )
         pc += 1
         if op < VEC:
-            width = 3 if e & VECTOR_RESULT else 1
-            sa, sb, sc = (e >> 1) & 1, (e >> 2) & 1, (e >> 3) & 1
-            for i in range(n):
-                for k in range(width):
-                    reg[dst, i, k] = _elementwise(op, reg[a, i, k * sa], reg[b, i, k * sb], reg[c, i, k * sc])
+            if e & VECTOR_RESULT:
+                sa, sb, sc = (e >> 1) & 1, (e >> 2) & 1, (e >> 3) & 1
+                for i in range(n):
+                    for k in range(3):
+                        reg[dst, i, k] = elementwise(op, reg[a, i, k * sa], reg[b, i, k * sb], reg[c, i, k * sc])
+            else:  # a scalar result reads the first component of every operand
+                for i in range(n):
+                    reg[dst, i, 0] = elementwise(op, reg[a, i, 0], reg[b, i, 0], reg[c, i, 0])
         elif op == VEC:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = reg[a, i, 0], reg[b, i, 0], reg[c, i, 0]
@@ -486,7 +417,7 @@ def run(
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = contact[i, a]
         elif op == PHASE:
             for i in range(n):
-                reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = _wrap(phase[a, i])
+                reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = wrap(phase[a, i])
         elif op == TIS:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = time_in_state[a, i]

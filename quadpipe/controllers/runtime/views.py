@@ -1,7 +1,7 @@
 """Views of the kernel's arrays from their addresses (see `kernel.address_table`).
 
 The kernel reaches every array through one table of addresses: a row `(address, d0, d1, d2)`
-per array. These helpers make a numba array view of a row, of int64 or float64, with one, two
+per array. These helpers make a numba array view of a row, of int64, int32 or float64, with one, two
 or three dimensions; a view made from an address carries no reference count (the caller keeps
 the arrays alive).
 """
@@ -41,6 +41,12 @@ def ints1(table: np.ndarray, row: int) -> np.ndarray:
 def ints2(table: np.ndarray, row: int) -> np.ndarray:
     """The int64 array of address table row `row`, as (d0, d1 x d2)."""
     return numba.carray(_pointer(table[row, 0], numba.int64), (table[row, 1], table[row, 2] * table[row, 3]))
+
+
+@numba.njit(cache=True)
+def int32s2(table: np.ndarray, row: int) -> np.ndarray:
+    """The int32 array of address table row `row` (the program, MuJoCo's contact geoms), as (d0, d1 x d2)."""
+    return numba.carray(_pointer(table[row, 0], numba.int32), (table[row, 1], table[row, 2] * table[row, 3]))
 
 
 @numba.njit(cache=True)
