@@ -71,7 +71,7 @@ def _duty(duty: float) -> float:
     return min(max(duty, LEG_DUTY_MARGIN), 1.0 - LEG_DUTY_MARGIN)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def elementwise(op: int, x: float, y: float, z: float) -> float:
     """One component of an arithmetic op on operands x, y, z."""
     if op == ADD:
