@@ -70,7 +70,7 @@ from quadpipe.controllers.runtime.ops import (
     elementwise,
     wrap,
 )
-from quadpipe.controllers.runtime.views import int32s2, ints1, ints2, reals1, reals2, reals3
+from quadpipe.controllers.runtime.views import int32s2, ints1, ints2, reals1, reals2, reals3, uint32s2
 
 HEADING_MIN_NORM = 1e-9
 """Below this horizontal length, the pelvis-to-thorax direction is undefined: +x is used."""
@@ -94,11 +94,12 @@ NO_FAULT = -1
 """What `run` returns when every force and spring value was finite; else it returns the first
 force slot with a non-finite force, or the number of slots plus the first such spring."""
 
-CODE_DTYPE = np.int32
-"""The program's integer type: every field (an opcode, a register, a row of a table, a jump
-target, a bit mask of at most 31 states) fits, and the instructions streamed through the cache
-each step take half the bytes of int64 (`program_array`). The program is row `CODE` (0) of
-the address table."""
+CODE_DTYPE = np.uint32
+"""The program's integer type (`program_array`). Every field fits (an opcode, a register, a row
+of a table, a jump target, a bit mask of at most 32 states; none is negative), the instructions
+streamed through the cache each step take half the bytes of int64, and numba indexes with an
+unsigned field without first testing it for a negative index. The program is row `CODE` (0)
+of the address table."""
 
 CODE = 0
 
@@ -151,7 +152,7 @@ def program_array(code: np.ndarray) -> np.ndarray:
     """A program's instructions as the kernel reads them: C-contiguous `CODE_DTYPE`.
 
     Raises:
-        ValueError: a field does not fit (a machine of more than 31 states, or some 2**31 registers).
+        ValueError: a field does not fit (a machine of more than 32 states, or some 2**32 registers).
     """
     limits = np.iinfo(CODE_DTYPE)
     if code.size and (code.min() < limits.min or code.max() > limits.max):
@@ -306,7 +307,7 @@ def run(
     A force or spring value that is NaN or infinite is not applied: `run` returns where it
     was (see `NO_FAULT`), for the runtime to report.
     """
-    code, reg = int32s2(table, CODE), reals3(table, REGISTERS)
+    code, reg = uint32s2(table, CODE), reals3(table, REGISTERS)
     n = reg.shape[1]
     point_body, frame_body = ints2(table, POINT_BODY), ints2(table, FRAME_BODY)
     leg_of_geom, animal_of_geom = ints1(table, LEG_OF_GEOM), ints1(table, ANIMAL_OF_GEOM)

@@ -45,8 +45,14 @@ def ints2(table: np.ndarray, row: int) -> np.ndarray:
 
 @numba.njit(cache=True)
 def int32s2(table: np.ndarray, row: int) -> np.ndarray:
-    """The int32 array of address table row `row` (the program, MuJoCo's contact geoms), as (d0, d1 x d2)."""
+    """The int32 array of address table row `row` (MuJoCo's contact geoms), as (d0, d1 x d2)."""
     return numba.carray(_pointer(table[row, 0], numba.int32), (table[row, 1], table[row, 2] * table[row, 3]))
+
+
+@numba.njit(cache=True)
+def uint32s2(table: np.ndarray, row: int) -> np.ndarray:
+    """The uint32 array of address table row `row` (the program, `kernel.CODE_DTYPE`), as (d0, d1 x d2)."""
+    return numba.carray(_pointer(table[row, 0], numba.uint32), (table[row, 1], table[row, 2] * table[row, 3]))
 
 
 @numba.njit(cache=True)
