@@ -10,13 +10,13 @@ when the program is built, and never overwritten.
 
 Instructions: rows of `code`, `(op, dst, a, b, c, d, e)`; `a`, `b`, `c` are registers for
 the arithmetic ops, and table indices or jump targets for the others (each op is described
-in `quadpipe.controllers.runtime.ops`, with the arithmetic of the elementwise ones). An
+in `quadpipe.controllers.runtime.ops`; `_elementwise` computes the arithmetic ones). An
 elementwise op's `e` holds the vector flags: which of its result and operands are vectors
 (a scalar operand of a vector op is used for all three components).
 
 Arrays: the kernel reaches every array it reads or writes (the program, the registers, the
 runtime's tables and state, MuJoCo's data and model arrays) through one table of addresses
-(`address_table`), so a call passes one array where it would pass some thirty: numba
+(`views.address_table`), so a call passes one array where it would pass some thirty: numba
 converts each array argument on every call (~0.1-0.2 µs each), and views made from an
 address carry no reference count.
 
@@ -31,46 +31,19 @@ One call of `run` does, in order:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import numba
 import numpy as np
 
+from quadpipe.controllers.runtime import ops
 from quadpipe.controllers.runtime.mjlib import mj_ray
-from quadpipe.controllers.runtime.ops import (
-    ADVANCE,
-    ANGLE,
-    BODYROT,
-    COMP,
-    CONTACT,
-    CROSS,
-    DOT,
-    FORCE,
-    GROUND_NORMAL,
-    HEADING,
-    HEIGHT,
-    HORIZONTAL,
-    INTERP,
-    JUMP_IF_NONE,
-    MASK,
-    NORM,
-    NORMALIZE,
-    PHASE,
-    POINT,
-    SMOOTH,
-    SPRING,
-    TIME,
-    TIS,
-    TRANSITION,
-    VEC,
-    VECTOR_RESULT,
-    VELOCITY,
-    ZERO,
-    ZERO_NORM,
-    elementwise,
-    wrap,
-)
 from quadpipe.controllers.runtime.views import int32s2, ints1, ints2, reals1, reals2, reals3, uint32s2
+
+ZERO_NORM = 1e-12
+"""Vectors shorter than this have no direction (as in `expressions.ZERO_NORM`)."""
+
+LEG_DUTY_MARGIN = 1e-6
+"""`leg_sweep` and `leg_lift` keep the duty factor this far inside (0, 1)."""
 
 HEADING_MIN_NORM = 1e-9
 """Below this horizontal length, the pelvis-to-thorax direction is undefined: +x is used."""
@@ -107,7 +80,7 @@ INTEGER_ARRAYS = (
     "point_body", "frame_body", "leg_of_geom", "animal_of_geom", "heading_points", "spring_start",
     "spring_dof", "spring_qpos", "spring_twist", "slot_body", "body_root", "state", "sensor_ready",
 )  # fmt: skip
-"""The int64 arrays of a runtime, rows of the address table (`address_table`) in this order, after `CODE`."""
+"""The int64 arrays of a runtime, rows of the address table (`views.address_table`) in this order, after `CODE`."""
 (POINT_BODY, FRAME_BODY, LEG_OF_GEOM, ANIMAL_OF_GEOM, HEADING_POINTS, SPRING_START, SPRING_DOF,
  SPRING_QPOS, SPRING_TWIST, SLOT_BODY, BODY_ROOT, STATE, SENSOR_READY) = range(1, 1 + len(INTEGER_ARRAYS))  # fmt: skip
 
@@ -130,23 +103,6 @@ themselves (`MODEL`, `DATA`, for `mj_ray`)."""
     range(REGISTERS + len(REAL_ARRAYS), REGISTERS + len(REAL_ARRAYS) + len(MUJOCO_ARRAYS) + 4)
 )  # fmt: skip
 
-TABLE_WIDTH = 4
-"""Columns of an address table row: the address, then up to three dimensions (missing ones 1)."""
-
-
-def address_row(array: np.ndarray, dtype: type) -> tuple[int, int, int, int]:
-    """The address table row of a C-contiguous array of `dtype` (see `address_table`).
-
-    Raises:
-        ValueError: the array is not C-contiguous, not of `dtype`, or has more than three dimensions.
-    """
-    if array.dtype != dtype or not array.flags.c_contiguous or array.ndim > 3:
-        raise ValueError(
-            f"the kernel reads C-contiguous {np.dtype(dtype)} arrays of up to 3 dimensions, not {array.dtype} {array.shape}"
-        )
-    shape = array.shape + (1,) * (3 - array.ndim)
-    return (array.ctypes.data, shape[0], shape[1], shape[2])
-
 
 def program_array(code: np.ndarray) -> np.ndarray:
     """A program's instructions as the kernel reads them: C-contiguous `CODE_DTYPE`.
@@ -160,25 +116,113 @@ def program_array(code: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(code, CODE_DTYPE)
 
 
-def contact_row(view: np.ndarray) -> tuple[int, int, int, int]:
-    """The address table row of a field of MuJoCo's contact structs (`view`: a strided view, a
-    row per contact, of int32 geoms or float64 frames): row c of the kernel's view starts at
-    contact c's field, its whole struct wide, so its first columns are that field.
-
-    Raises:
-        ValueError: the struct's size is not a whole number of the field's items.
-    """
-    rows, stride = view.shape[0], view.strides[0]
-    if stride % view.itemsize or view.strides[1] != view.itemsize:
-        raise ValueError(f"contact structs of {stride} bytes are not a whole number of {view.dtype} items")
-    return (view.ctypes.data, rows, stride // view.itemsize, 1)
+@numba.njit(cache=True)
+def _wrap(x: float) -> float:
+    """x modulo 1, as numpy's `mod` computes it (the same single rounding)."""
+    return x - math.floor(x)
 
 
-def address_table(rows: Sequence[tuple[int, int, int, int]]) -> np.ndarray:
-    """The kernel's address table: a row `(address, d0, d1, d2)` per array (`address_row`), in
-    the order `CODE`, `INTEGER_ARRAYS`, `REAL_ARRAYS`, `MUJOCO_ARRAYS`, the contacts (`contact_row`), then the model and the data
-    (`(address, 0, 0, 0)`). The caller keeps every array alive while the kernel runs on the table."""
-    return np.array(rows, dtype=np.int64).reshape(-1, TABLE_WIDTH)
+@numba.njit(cache=True)
+def _smoothstep(e0: float, e1: float, x: float) -> float:
+    if e1 == e0:
+        return 1.0 if x >= e0 else 0.0
+    u = min(max((x - e0) / (e1 - e0), 0.0), 1.0)
+    return u * u * (3.0 - 2.0 * u)
+
+
+@numba.njit(cache=True)
+def _duty(duty: float) -> float:
+    return min(max(duty, LEG_DUTY_MARGIN), 1.0 - LEG_DUTY_MARGIN)
+
+
+@numba.njit(cache=True, inline="always")
+def _elementwise(op: int, x: float, y: float, z: float) -> float:
+    """One component of an arithmetic op on operands x, y, z."""
+    if op == ops.ADD:
+        return x + y
+    if op == ops.SUB:
+        return x - y
+    if op == ops.MUL:
+        return x * y
+    if op == ops.SUB_MUL:
+        return x - y * z
+    if op == ops.MUL_SUB:
+        return x * (y - z)
+    if op == ops.MUL_MUL:
+        return x * (y * z)
+    if op == ops.ADD_MUL:
+        return x + y * z
+    if op == ops.DIV:
+        return x / y if y != 0.0 else 0.0
+    if op == ops.POW:
+        return x**y
+    if op == ops.MIN:
+        return x if x < y else y
+    if op == ops.MAX:
+        return x if x > y else y
+    if op == ops.ATAN2:
+        return math.atan2(x, y)
+    if op == ops.LT:
+        return 1.0 if x < y else 0.0
+    if op == ops.LE:
+        return 1.0 if x <= y else 0.0
+    if op == ops.GT:
+        return 1.0 if x > y else 0.0
+    if op == ops.GE:
+        return 1.0 if x >= y else 0.0
+    if op == ops.AND:
+        return 1.0 if (x != 0.0 and y != 0.0) else 0.0
+    if op == ops.OR:
+        return 1.0 if (x != 0.0 or y != 0.0) else 0.0
+    if op == ops.STEP:
+        return 1.0 if y >= x else 0.0
+    if op == ops.NEG:
+        return -x
+    if op == ops.NOT:
+        return 1.0 if x == 0.0 else 0.0
+    if op == ops.SIN:
+        return math.sin(x)
+    if op == ops.COS:
+        return math.cos(x)
+    if op == ops.TAN:
+        return math.tan(x)
+    if op == ops.ASIN:
+        return math.asin(min(max(x, -1.0), 1.0))
+    if op == ops.ACOS:
+        return math.acos(min(max(x, -1.0), 1.0))
+    if op == ops.ATAN:
+        return math.atan(x)
+    if op == ops.SQRT:
+        return math.sqrt(max(x, 0.0))
+    if op == ops.EXP:
+        return math.exp(x)
+    if op == ops.LOG:
+        return math.log(max(x, ZERO_NORM))
+    if op == ops.ABS:
+        return abs(x)
+    if op == ops.SIGN:
+        return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else x)
+    if op == ops.WRAP:
+        return _wrap(x)
+    if op == ops.CLAMP:
+        return min(max(x, y), z)
+    if op == ops.SMOOTHSTEP:
+        return _smoothstep(x, y, z)
+    if op == ops.MIX:
+        return x + (y - x) * z
+    if op == ops.SELECT:
+        return y if x != 0.0 else z
+    if op == ops.LEG_SWEEP:
+        duty = _duty(y)
+        if x < duty:
+            return 1.0 - 2.0 * x / duty
+        return 2.0 * _smoothstep(duty, 1.0, x) - 1.0
+    if op == ops.LEG_LIFT:
+        duty = _duty(y)
+        if x < duty:
+            return 0.0
+        return math.sin(math.pi * min(max((x - duty) / (1.0 - duty), 0.0), 1.0))
+    return math.nan
 
 
 @numba.njit(cache=True)
@@ -297,7 +341,7 @@ def run(
 ) -> int:  # fmt: skip
     """Run instructions `first` to `last` of a controller program (see the module docstring).
 
-    `table` holds the address and shape of every array the kernel uses (`address_table`): the
+    `table` holds the address and shape of every array the kernel uses (`views.address_table`): the
     program, the registers, the runtime's tables and state, and MuJoCo's own arrays (forces
     are added into `xfrc_applied` and `qfrc_applied`, damping written into the model's
     `dof_damping`), and the addresses of the model and the data, for MuJoCo's ray casts
@@ -343,67 +387,67 @@ def run(
             code[pc, 6],
         )
         pc += 1
-        if op < VEC:
-            if e & VECTOR_RESULT:
+        if op < ops.VEC:
+            if e & ops.VECTOR_RESULT:
                 sa, sb, sc = (e >> 1) & 1, (e >> 2) & 1, (e >> 3) & 1
                 for i in range(n):
                     for k in range(3):
-                        reg[dst, i, k] = elementwise(op, reg[a, i, k * sa], reg[b, i, k * sb], reg[c, i, k * sc])
+                        reg[dst, i, k] = _elementwise(op, reg[a, i, k * sa], reg[b, i, k * sb], reg[c, i, k * sc])
             else:  # a scalar result reads the first component of every operand
                 for i in range(n):
-                    reg[dst, i, 0] = elementwise(op, reg[a, i, 0], reg[b, i, 0], reg[c, i, 0])
-        elif op == VEC:
+                    reg[dst, i, 0] = _elementwise(op, reg[a, i, 0], reg[b, i, 0], reg[c, i, 0])
+        elif op == ops.VEC:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = reg[a, i, 0], reg[b, i, 0], reg[c, i, 0]
-        elif op == COMP:
+        elif op == ops.COMP:
             for i in range(n):
                 value = reg[a, i, b]
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
-        elif op == NORM:
+        elif op == ops.NORM:
             for i in range(n):
                 value = math.sqrt(reg[a, i, 0] ** 2 + reg[a, i, 1] ** 2 + reg[a, i, 2] ** 2)
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
-        elif op == NORMALIZE:
+        elif op == ops.NORMALIZE:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = _unit(reg[a, i, 0], reg[a, i, 1], reg[a, i, 2])
-        elif op == DOT:
+        elif op == ops.DOT:
             for i in range(n):
                 value = reg[a, i, 0] * reg[b, i, 0] + reg[a, i, 1] * reg[b, i, 1] + reg[a, i, 2] * reg[b, i, 2]
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
-        elif op == CROSS:
+        elif op == ops.CROSS:
             for i in range(n):
                 x = reg[a, i, 1] * reg[b, i, 2] - reg[a, i, 2] * reg[b, i, 1]
                 y = reg[a, i, 2] * reg[b, i, 0] - reg[a, i, 0] * reg[b, i, 2]
                 z = reg[a, i, 0] * reg[b, i, 1] - reg[a, i, 1] * reg[b, i, 0]
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = x, y, z
-        elif op == ANGLE:
+        elif op == ops.ANGLE:
             for i in range(n):
                 ux, uy, uz = _unit(reg[a, i, 0], reg[a, i, 1], reg[a, i, 2])
                 vx, vy, vz = _unit(reg[b, i, 0], reg[b, i, 1], reg[b, i, 2])
                 value = math.acos(min(max(ux * vx + uy * vy + uz * vz, -1.0), 1.0))
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
-        elif op == INTERP:
+        elif op == ops.INTERP:
             for i in range(n):
                 _interp(reg, dst, i, reg[a, i, 0], b, c, e)
-        elif op == HORIZONTAL:
+        elif op == ops.HORIZONTAL:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = reg[a, i, 0], reg[a, i, 1], 0.0
-        elif op == HEADING:
+        elif op == ops.HEADING:
             for i in range(n):
                 x, y, z = reg[a, i, 0], reg[a, i, 1], reg[a, i, 2]
                 for k in range(3):
                     reg[dst, i, k] = heading[i, k, 0] * x + heading[i, k, 1] * y + heading[i, k, 2] * z
-        elif op == BODYROT:
+        elif op == ops.BODYROT:
             for i in range(n):
                 x, y, z, body = reg[a, i, 0], reg[a, i, 1], reg[a, i, 2], frame_body[b, i]
                 for k in range(3):
                     reg[dst, i, k] = xmat[body, 3 * k] * x + xmat[body, 3 * k + 1] * y + xmat[body, 3 * k + 2] * z
-        elif op == POINT:
+        elif op == ops.POINT:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = _point(
                     xpos, xmat, point_body[a, i], point_offset[a, i]
                 )
-        elif op == VELOCITY:
+        elif op == ops.VELOCITY:
             for i in range(n):
                 body = point_body[a, i]
                 px, py, pz = _point(xpos, xmat, body, point_offset[a, i])
@@ -413,18 +457,18 @@ def run(
                 reg[dst, i, 0] = cvel[body, 3] + (wy * rz - wz * ry)
                 reg[dst, i, 1] = cvel[body, 4] + (wz * rx - wx * rz)
                 reg[dst, i, 2] = cvel[body, 5] + (wx * ry - wy * rx)
-        elif op == CONTACT:
+        elif op == ops.CONTACT:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = contact[i, a]
-        elif op == PHASE:
+        elif op == ops.PHASE:
             for i in range(n):
-                reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = wrap(phase[a, i])
-        elif op == TIS:
+                reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = _wrap(phase[a, i])
+        elif op == ops.TIS:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = time_in_state[a, i]
-        elif op == TIME:
+        elif op == ops.TIME:
             reg[dst, :, :] = time
-        elif op == GROUND_NORMAL:
+        elif op == ops.GROUND_NORMAL:
             for i in range(n):
                 x = y = z = 0.0
                 for leg in range(LEG_COUNT):
@@ -437,22 +481,22 @@ def run(
                     reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = x / length, y / length, z / length
                 else:
                     reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = 0.0, 0.0, 1.0
-        elif op == HEIGHT:
+        elif op == ops.HEIGHT:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = _ground_height(model, data, reg[a, i])
-        elif op == MASK:
+        elif op == ops.MASK:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = 1.0 if state[a, i] == b else 0.0
-        elif op == JUMP_IF_NONE:
+        elif op == ops.JUMP_IF_NONE:
             none = True
             for i in range(n):
                 if reg[a, i, 0] != 0.0:
                     none = False
             if none:
                 pc = b
-        elif op == ZERO:
+        elif op == ops.ZERO:
             reg[dst, :, :] = 0.0
-        elif op == SMOOTH:
+        elif op == ops.SMOOTH:
             for i in range(n):
                 if sensor_ready[c] != 0:
                     weight = dt / (reg[b, i, 0] + dt)
@@ -462,10 +506,10 @@ def run(
                     for k in range(3):
                         reg[dst, i, k] = reg[a, i, k]
             sensor_ready[c] = 1
-        elif op == ADVANCE:
+        elif op == ops.ADVANCE:
             for i in range(n):
                 phase[a, i] += dt / max(reg[b, i, 0], MIN_PERIOD_S)
-        elif op == TRANSITION:
+        elif op == ops.TRANSITION:
             for i in range(n):
                 fires = (
                     reg[dst, i, 0] == 0.0
@@ -477,7 +521,7 @@ def run(
                     state[c, i] = d
                     time_in_state[c, i] = 0.0
                     reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = 1.0
-        elif op == FORCE:
+        elif op == ops.FORCE:
             sign = -1.0 if e else 1.0
             for i in range(n):
                 body = slot_body[dst, i]
@@ -495,7 +539,7 @@ def run(
                 xfrc[body, 3] += ry * fz - rz * fy
                 xfrc[body, 4] += rz * fx - rx * fz
                 xfrc[body, 5] += rx * fy - ry * fx
-        elif op == SPRING:
+        elif op == ops.SPRING:
             for j in range(spring_start[dst], spring_start[dst + 1]):
                 for i in range(n):
                     target = reg[a, i, 0] if spring_twist[j, i] != 0 else 0.0

@@ -43,14 +43,12 @@ from quadpipe.controllers.runtime.kernel import (
     MUJOCO_ARRAYS,
     NO_FAULT,
     REAL_ARRAYS,
-    address_row,
-    address_table,
-    contact_row,
     program_array,
     run,
 )
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
 from quadpipe.controllers.runtime.variation import StrideClock, Variation
+from quadpipe.controllers.runtime.views import address_row, address_table, contact_row
 from quadpipe.core import configs
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities.units import scale_for_animals
