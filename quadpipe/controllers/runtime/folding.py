@@ -4,7 +4,7 @@
 needs nothing from the simulation into a constant. What it leaves are operations with a
 constant operand that decides their result: a spring of stiffness 0 masked by its machine's
 state (`0 * mask`), a tunable at 0 (`unload * smoothstep(...)`), `x * 1`, `x + 0`, a `mix`
-by 0. `fold(program)` runs three passes over the program:
+by 0. `fold(program)` runs four passes over the program:
 
 1. **Identities** (`_identity`), in program order: an operation whose constant operands
    decide its value becomes a constant (`x * 0`, `0 / x`, `0 and c`, any exact operation of
@@ -16,6 +16,9 @@ by 0. `fold(program)` runs three passes over the program:
    dropped, and a state-machine block left empty loses its jump; the registers still read
    are renumbered densely (a table's blocks of constants stay whole and consecutive), so the
    register file shrinks with the program.
+4. **Fusing** (`quadpipe.controllers.runtime.fusing`): a product or difference read only by
+   the next instruction, as its operand b, is computed inside it (`a - b * c` and the like),
+   and the dead code pass runs again to drop it.
 
 What changes: a term multiplied by a constant 0 is 0 even where the other factor would be
 NaN or infinite (that factor can never act, so its fault is not reported), and the sign of a
@@ -25,13 +28,16 @@ operations in the same order, so forces are bit-for-bit those of the unfolded pr
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
-from quadpipe.controllers.runtime.kernel import (
+from quadpipe.controllers.runtime.fusing import fuse
+from quadpipe.controllers.runtime.lowering import OPERANDS, Program
+from quadpipe.controllers.runtime.ops import (
     ADD,
     ADVANCE,
     AND,
@@ -69,10 +75,9 @@ from quadpipe.controllers.runtime.kernel import (
     VECTOR_RESULT,
     ZERO,
 )
-from quadpipe.controllers.runtime.lowering import OPERANDS, Program
 
 DST, A, B, C, E = 1, 2, 3, 4, 6
-"""Columns of an instruction (`kernel.CODE_WIDTH`): op, dst, a, b, c, d, e."""
+"""Columns of an instruction (`ops.CODE_WIDTH`): op, dst, a, b, c, d, e."""
 
 STATEFUL_OPS = frozenset((JUMP_IF_NONE, ZERO, SMOOTH, ADVANCE, TRANSITION, FORCE, SPRING))
 """Ops kept whether or not their result is read: they change state, forces or control flow."""
@@ -224,11 +229,17 @@ def _live(code: np.ndarray, removed: set[int]) -> list[int]:
     return kept[::-1]
 
 
-def fold(program: Program) -> Program:
-    """The program folded (see the module docstring): same forces, fewer instructions and registers."""
+def fold(program: Program, *, fused: bool = True) -> Program:
+    """The program folded (see the module docstring): same forces, fewer instructions and
+    registers; `fused=False` leaves out the fusing pass (to check or time it)."""
     folder = _Folder(program)
     folder.run()
     kept = _live(folder.code, folder.removed)
+    if fused:
+        dropped = set(range(len(folder.code))) - set(kept)
+        reads = Counter(int(row[f]) for row in folder.code[kept] for f in read_fields(int(row[0])))
+        fuse(folder.code, dropped, reads, {register for register, _ in program.sensors.values()})
+        kept = _live(folder.code, dropped)
     new_index = {old: new for new, old in enumerate(kept)}
     code = folder.code[kept]
     registers = sorted(

@@ -9,13 +9,14 @@ component (a condition is 1.0 or 0.0). Constants are written into their register
 when the program is built, and never overwritten.
 
 Instructions: rows of `code`, `(op, dst, a, b, c, d, e)`; `a`, `b`, `c` are registers for
-the arithmetic ops, and table indices or jump targets for the others (see each op). An
+the arithmetic ops, and table indices or jump targets for the others (each op is described
+in `quadpipe.controllers.runtime.ops`; `_elementwise` computes the arithmetic ones). An
 elementwise op's `e` holds the vector flags: which of its result and operands are vectors
 (a scalar operand of a vector op is used for all three components).
 
 Arrays: the kernel reaches every array it reads or writes (the program, the registers, the
 runtime's tables and state, MuJoCo's data and model arrays) through one table of addresses
-(`address_table`), so a call passes one array where it would pass some thirty: numba
+(`views.address_table`), so a call passes one array where it would pass some thirty: numba
 converts each array argument on every call (~0.1-0.2 µs each), and views made from an
 address carry no reference count.
 
@@ -30,16 +31,19 @@ One call of `run` does, in order:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import numba
 import numpy as np
 
+from quadpipe.controllers.runtime import ops
 from quadpipe.controllers.runtime.mjlib import mj_ray
-from quadpipe.controllers.runtime.views import ints1, ints2, reals1, reals2, reals3
+from quadpipe.controllers.runtime.views import int32s2, ints1, ints2, reals1, reals2, reals3, uint32s2
 
 ZERO_NORM = 1e-12
 """Vectors shorter than this have no direction (as in `expressions.ZERO_NORM`)."""
+
+LEG_DUTY_MARGIN = 1e-6
+"""`leg_sweep` and `leg_lift` keep the duty factor this far inside (0, 1)."""
 
 HEADING_MIN_NORM = 1e-9
 """Below this horizontal length, the pelvis-to-thorax direction is undefined: +x is used."""
@@ -50,9 +54,6 @@ NORMAL_MIN_NORM = 1e-9
 MIN_PERIOD_S = 1e-9
 """Shortest cycle period; a shorter (or zero) one is clamped to it."""
 
-LEG_DUTY_MARGIN = 1e-6
-"""`leg_sweep` and `leg_lift` keep the duty factor this far inside (0, 1)."""
-
 LEG_COUNT = 4
 
 WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
@@ -62,51 +63,26 @@ WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
 DOWN = -np.array([0.0, 0.0, 1.0])
 """Direction of a ground ray."""
 
-VECTOR_RESULT, VECTOR_A, VECTOR_B, VECTOR_C = 1, 2, 4, 8
-"""the vector flags of an elementwise op (its `e`): the result, operand a, b, c are vectors."""
-
-# Opcodes. Arithmetic (dst, a, b, c are registers), elementwise (see `VECTOR_RESULT`).
-ADD, SUB, MUL, DIV, POW, MIN, MAX, ATAN2 = 1, 2, 3, 4, 5, 6, 7, 8
-LT, LE, GT, GE, AND, OR, STEP = 9, 10, 11, 12, 13, 14, 15
-NEG, NOT, SIN, COS, TAN, ASIN, ACOS, ATAN, SQRT, EXP, LOG, ABS, SIGN, WRAP = range(16, 30)
-CLAMP, SMOOTHSTEP, MIX, SELECT, LEG_SWEEP, LEG_LIFT = 30, 31, 32, 33, 34, 35
-# Vector ops (dst, a, b are registers; COMP's b is the component index).
-VEC, COMP, NORM, NORMALIZE, DOT, CROSS, ANGLE, HORIZONTAL = 40, 41, 42, 43, 44, 45, 46, 47
-# Tables: INTERP(dst, a = x, b = first of the breakpoints' registers, c = first of the values',
-# e = their number): the table at x (see `_interp`).
-INTERP = 48
-# Frames: HEADING(dst, a); BODYROT(dst, a, b = row of `frame_body`).
-HEADING, BODYROT = 50, 51
-# Simulation reads: POINT/VELOCITY(dst, a = row of `point_body`); CONTACT(dst, a = leg);
-# PHASE(dst, a = cycle); TIS(dst, a = machine); TIME(dst); GROUND_NORMAL(dst, a = leg bits);
-# MASK(dst, a = machine, b = state); HEIGHT(dst, a = point register: its height above the ground).
-POINT, VELOCITY, CONTACT, PHASE, TIS, TIME, GROUND_NORMAL, MASK, HEIGHT = 60, 61, 62, 63, 64, 65, 66, 67, 68
-# Control: JUMP_IF_NONE(a = mask register, b = target); ZERO(dst).
-JUMP_IF_NONE, ZERO = 70, 71
-# State: SMOOTH(dst = sensor register, a = raw, b = time constant, c = sensor);
-# ADVANCE(a = cycle, b = period register);
-# TRANSITION(dst = switched register, a = delay, b = condition, c = machine, d = target state,
-# e = bit mask of the source states).
-SMOOTH, ADVANCE, TRANSITION = 80, 81, 82
-# Forces: FORCE(dst = slot, a = point register, b = force register, e = 1: its opposite);
-# SPRING(dst = spring, a = target angle, b = stiffness, c = damping).
-FORCE, SPRING = 90, 91
-
 NO_FAULT = -1
 """What `run` returns when every force and spring value was finite; else it returns the first
 force slot with a non-finite force, or the number of slots plus the first such spring."""
 
-CODE_WIDTH = 7
-"""Columns of an instruction: op, dst, a, b, c, d, e."""
+CODE_DTYPE = np.uint32
+"""The program's integer type (`program_array`). Every field fits (an opcode, a register, a row
+of a table, a jump target, a bit mask of at most 32 states; none is negative), the instructions
+streamed through the cache each step take half the bytes of int64, and numba indexes with an
+unsigned field without first testing it for a negative index. The program is row `CODE` (0)
+of the address table."""
 
+CODE = 0
 
 INTEGER_ARRAYS = (
-    "code", "point_body", "frame_body", "leg_of_geom", "animal_of_geom", "heading_points", "spring_start",
+    "point_body", "frame_body", "leg_of_geom", "animal_of_geom", "heading_points", "spring_start",
     "spring_dof", "spring_qpos", "spring_twist", "slot_body", "body_root", "state", "sensor_ready",
 )  # fmt: skip
-"""The int64 arrays of a runtime, rows of the address table (`address_table`) in this order."""
-(CODE, POINT_BODY, FRAME_BODY, LEG_OF_GEOM, ANIMAL_OF_GEOM, HEADING_POINTS, SPRING_START, SPRING_DOF,
- SPRING_QPOS, SPRING_TWIST, SLOT_BODY, BODY_ROOT, STATE, SENSOR_READY) = range(len(INTEGER_ARRAYS))  # fmt: skip
+"""The int64 arrays of a runtime, rows of the address table (`views.address_table`) in this order, after `CODE`."""
+(POINT_BODY, FRAME_BODY, LEG_OF_GEOM, ANIMAL_OF_GEOM, HEADING_POINTS, SPRING_START, SPRING_DOF,
+ SPRING_QPOS, SPRING_TWIST, SLOT_BODY, BODY_ROOT, STATE, SENSOR_READY) = range(1, 1 + len(INTEGER_ARRAYS))  # fmt: skip
 
 REAL_ARRAYS = (
     "registers", "point_offset", "base_damping", "slot_point", "slot_force", "phase", "time_in_state",
@@ -114,41 +90,30 @@ REAL_ARRAYS = (
 )  # fmt: skip
 """The float64 arrays of a runtime, rows of the address table after `INTEGER_ARRAYS`."""
 (REGISTERS, POINT_OFFSET, BASE_DAMPING, SLOT_POINT, SLOT_FORCE, PHASES, TIME_IN_STATE, DAMPING, CONTACTS,
- NORMALS, HEADING_FRAMES) = range(len(INTEGER_ARRAYS), len(INTEGER_ARRAYS) + len(REAL_ARRAYS))  # fmt: skip
+ NORMALS, HEADING_FRAMES) = range(1 + len(INTEGER_ARRAYS), 1 + len(INTEGER_ARRAYS) + len(REAL_ARRAYS))  # fmt: skip
 
 MUJOCO_ARRAYS = (
     "xpos", "xmat", "xipos", "cvel", "subtree_com", "qpos", "qfrc_applied", "xfrc_applied", "dof_damping",
 )  # fmt: skip
 """The float64 arrays of MuJoCo's data (and the model's `dof_damping`), rows of the address
-table after `REAL_ARRAYS`; then two rows hold the addresses of the model and the data
+table after `REAL_ARRAYS`; then two rows hold MuJoCo's contacts (`CONTACT_GEOMS`,
+`CONTACT_FRAMES`: see `contact_row`), and two the addresses of the model and the data
 themselves (`MODEL`, `DATA`, for `mj_ray`)."""
-(XPOS, XMAT, XIPOS, CVEL, SUBTREE_COM, QPOS, QFRC, XFRC, DOF_DAMPING, MODEL, DATA) = range(
-    len(INTEGER_ARRAYS) + len(REAL_ARRAYS), len(INTEGER_ARRAYS) + len(REAL_ARRAYS) + len(MUJOCO_ARRAYS) + 2
+(XPOS, XMAT, XIPOS, CVEL, SUBTREE_COM, QPOS, QFRC, XFRC, DOF_DAMPING, CONTACT_GEOMS, CONTACT_FRAMES, MODEL, DATA) = (
+    range(REGISTERS + len(REAL_ARRAYS), REGISTERS + len(REAL_ARRAYS) + len(MUJOCO_ARRAYS) + 4)
 )  # fmt: skip
 
-TABLE_WIDTH = 4
-"""Columns of an address table row: the address, then up to three dimensions (missing ones 1)."""
 
-
-def address_row(array: np.ndarray, dtype: type) -> tuple[int, int, int, int]:
-    """The address table row of a C-contiguous array of `dtype` (see `address_table`).
+def program_array(code: np.ndarray) -> np.ndarray:
+    """A program's instructions as the kernel reads them: C-contiguous `CODE_DTYPE`.
 
     Raises:
-        ValueError: the array is not C-contiguous, not of `dtype`, or has more than three dimensions.
+        ValueError: a field does not fit (a machine of more than 32 states, or some 2**32 registers).
     """
-    if array.dtype != dtype or not array.flags.c_contiguous or array.ndim > 3:
-        raise ValueError(
-            f"the kernel reads C-contiguous {np.dtype(dtype)} arrays of up to 3 dimensions, not {array.dtype} {array.shape}"
-        )
-    shape = array.shape + (1,) * (3 - array.ndim)
-    return (array.ctypes.data, shape[0], shape[1], shape[2])
-
-
-def address_table(rows: Sequence[tuple[int, int, int, int]]) -> np.ndarray:
-    """The kernel's address table: a row `(address, d0, d1, d2)` per array (`address_row`), in
-    the order `INTEGER_ARRAYS`, `REAL_ARRAYS`, `MUJOCO_ARRAYS`, then the model and the data
-    (`(address, 0, 0, 0)`). The caller keeps every array alive while the kernel runs on the table."""
-    return np.array(rows, dtype=np.int64).reshape(-1, TABLE_WIDTH)
+    limits = np.iinfo(CODE_DTYPE)
+    if code.size and (code.min() < limits.min or code.max() > limits.max):
+        raise ValueError(f"a controller program field is beyond the kernel's {np.dtype(CODE_DTYPE)} range")
+    return np.ascontiguousarray(code, CODE_DTYPE)
 
 
 @numba.njit(cache=True)
@@ -170,81 +135,89 @@ def _duty(duty: float) -> float:
     return min(max(duty, LEG_DUTY_MARGIN), 1.0 - LEG_DUTY_MARGIN)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _elementwise(op: int, x: float, y: float, z: float) -> float:
     """One component of an arithmetic op on operands x, y, z."""
-    if op == ADD:
+    if op == ops.ADD:
         return x + y
-    if op == SUB:
+    if op == ops.SUB:
         return x - y
-    if op == MUL:
+    if op == ops.MUL:
         return x * y
-    if op == DIV:
+    if op == ops.SUB_MUL:
+        return x - y * z
+    if op == ops.MUL_SUB:
+        return x * (y - z)
+    if op == ops.MUL_MUL:
+        return x * (y * z)
+    if op == ops.ADD_MUL:
+        return x + y * z
+    if op == ops.DIV:
         return x / y if y != 0.0 else 0.0
-    if op == POW:
+    if op == ops.POW:
         return x**y
-    if op == MIN:
+    if op == ops.MIN:
         return x if x < y else y
-    if op == MAX:
+    if op == ops.MAX:
         return x if x > y else y
-    if op == ATAN2:
+    if op == ops.ATAN2:
         return math.atan2(x, y)
-    if op == LT:
+    if op == ops.LT:
         return 1.0 if x < y else 0.0
-    if op == LE:
+    if op == ops.LE:
         return 1.0 if x <= y else 0.0
-    if op == GT:
+    if op == ops.GT:
         return 1.0 if x > y else 0.0
-    if op == GE:
+    if op == ops.GE:
         return 1.0 if x >= y else 0.0
-    if op == AND:
+    if op == ops.AND:
         return 1.0 if (x != 0.0 and y != 0.0) else 0.0
-    if op == OR:
+    if op == ops.OR:
         return 1.0 if (x != 0.0 or y != 0.0) else 0.0
-    if op == STEP:
+    if op == ops.STEP:
         return 1.0 if y >= x else 0.0
-    if op == NEG:
+    if op == ops.NEG:
         return -x
-    if op == NOT:
+    if op == ops.NOT:
         return 1.0 if x == 0.0 else 0.0
-    if op == SIN:
+    if op == ops.SIN:
         return math.sin(x)
-    if op == COS:
+    if op == ops.COS:
         return math.cos(x)
-    if op == TAN:
+    if op == ops.TAN:
         return math.tan(x)
-    if op == ASIN:
+    if op == ops.ASIN:
         return math.asin(min(max(x, -1.0), 1.0))
-    if op == ACOS:
+    if op == ops.ACOS:
         return math.acos(min(max(x, -1.0), 1.0))
-    if op == ATAN:
+    if op == ops.ATAN:
         return math.atan(x)
-    if op == SQRT:
+    if op == ops.SQRT:
         return math.sqrt(max(x, 0.0))
-    if op == EXP:
+    if op == ops.EXP:
         return math.exp(x)
-    if op == LOG:
+    if op == ops.LOG:
         return math.log(max(x, ZERO_NORM))
-    if op == ABS:
+    if op == ops.ABS:
         return abs(x)
-    if op == SIGN:
+    if op == ops.SIGN:
         return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else x)
-    if op == WRAP:
+    if op == ops.WRAP:
         return _wrap(x)
-    if op == CLAMP:
+    if op == ops.CLAMP:
         return min(max(x, y), z)
-    if op == SMOOTHSTEP:
+    if op == ops.SMOOTHSTEP:
         return _smoothstep(x, y, z)
-    if op == MIX:
+    if op == ops.MIX:
         return x + (y - x) * z
-    if op == SELECT:
+    if op == ops.SELECT:
         return y if x != 0.0 else z
-    if op == LEG_SWEEP:
+    if op == ops.LEG_SWEEP:
         duty = _duty(y)
         if x < duty:
             return 1.0 - 2.0 * x / duty
         return 2.0 * _smoothstep(duty, 1.0, x) - 1.0
-    if op == LEG_LIFT:
+    if op == ops.LEG_LIFT:
         duty = _duty(y)
         if x < duty:
             return 0.0
@@ -364,22 +337,21 @@ def _headings(
 
 @numba.njit(cache=True, nogil=True)
 def run(
-    table: np.ndarray, dt: float, first: int, last: int, finish: bool, time: float, ncon: int,
-    contact_geoms: np.ndarray, contact_frames: np.ndarray,
+    table: np.ndarray, dt: float, first: int, last: int, finish: bool, time: float, ncon: int
 ) -> int:  # fmt: skip
     """Run instructions `first` to `last` of a controller program (see the module docstring).
 
-    `table` holds the address and shape of every array the kernel uses (`address_table`): the
+    `table` holds the address and shape of every array the kernel uses (`views.address_table`): the
     program, the registers, the runtime's tables and state, and MuJoCo's own arrays (forces
     are added into `xfrc_applied` and `qfrc_applied`, damping written into the model's
     `dof_damping`), and the addresses of the model and the data, for MuJoCo's ray casts
-    (`HEIGHT`). The other arguments change every call; `contact_geoms` and `contact_frames`
-    have `ncon` rows (or more: the rest is ignored).
+    (`HEIGHT`), and MuJoCo's contacts, of which the first `ncon` are read. The other arguments
+    change every call.
 
     A force or spring value that is NaN or infinite is not applied: `run` returns where it
     was (see `NO_FAULT`), for the runtime to report.
     """
-    code, reg = ints2(table, CODE), reals3(table, REGISTERS)
+    code, reg = uint32s2(table, CODE), reals3(table, REGISTERS)
     n = reg.shape[1]
     point_body, frame_body = ints2(table, POINT_BODY), ints2(table, FRAME_BODY)
     leg_of_geom, animal_of_geom = ints1(table, LEG_OF_GEOM), ints1(table, ANIMAL_OF_GEOM)
@@ -396,6 +368,7 @@ def run(
     cvel, subtree_com, qpos = reals2(table, CVEL), reals2(table, SUBTREE_COM), reals1(table, QPOS)
     qfrc, xfrc, dof_damping = reals1(table, QFRC), reals2(table, XFRC), reals1(table, DOF_DAMPING)
     model, data = table[MODEL, 0], table[DATA, 0]
+    contact_geoms, contact_frames = int32s2(table, CONTACT_GEOMS), reals2(table, CONTACT_FRAMES)
     _contacts(ncon, contact_geoms, contact_frames, leg_of_geom, animal_of_geom, contact, normals)
     _headings(xpos, xmat, point_body, point_offset, heading_points[0], heading_points[1], heading)
     if finish:
@@ -414,64 +387,67 @@ def run(
             code[pc, 6],
         )
         pc += 1
-        if op < VEC:
-            width = 3 if e & VECTOR_RESULT else 1
-            sa, sb, sc = (e >> 1) & 1, (e >> 2) & 1, (e >> 3) & 1
-            for i in range(n):
-                for k in range(width):
-                    reg[dst, i, k] = _elementwise(op, reg[a, i, k * sa], reg[b, i, k * sb], reg[c, i, k * sc])
-        elif op == VEC:
+        if op < ops.VEC:
+            if e & ops.VECTOR_RESULT:
+                sa, sb, sc = (e >> 1) & 1, (e >> 2) & 1, (e >> 3) & 1
+                for i in range(n):
+                    for k in range(3):
+                        reg[dst, i, k] = _elementwise(op, reg[a, i, k * sa], reg[b, i, k * sb], reg[c, i, k * sc])
+            else:  # a scalar result reads the first component of every operand
+                for i in range(n):
+                    reg[dst, i, 0] = _elementwise(op, reg[a, i, 0], reg[b, i, 0], reg[c, i, 0])
+        elif op == ops.VEC:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = reg[a, i, 0], reg[b, i, 0], reg[c, i, 0]
-        elif op == COMP:
+        elif op == ops.COMP:
             for i in range(n):
                 value = reg[a, i, b]
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
-        elif op == NORM:
+        elif op == ops.NORM:
             for i in range(n):
                 value = math.sqrt(reg[a, i, 0] ** 2 + reg[a, i, 1] ** 2 + reg[a, i, 2] ** 2)
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
-        elif op == NORMALIZE:
+        elif op == ops.NORMALIZE:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = _unit(reg[a, i, 0], reg[a, i, 1], reg[a, i, 2])
-        elif op == DOT:
+        elif op == ops.DOT:
             for i in range(n):
                 value = reg[a, i, 0] * reg[b, i, 0] + reg[a, i, 1] * reg[b, i, 1] + reg[a, i, 2] * reg[b, i, 2]
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
-        elif op == CROSS:
+        elif op == ops.CROSS:
             for i in range(n):
                 x = reg[a, i, 1] * reg[b, i, 2] - reg[a, i, 2] * reg[b, i, 1]
                 y = reg[a, i, 2] * reg[b, i, 0] - reg[a, i, 0] * reg[b, i, 2]
                 z = reg[a, i, 0] * reg[b, i, 1] - reg[a, i, 1] * reg[b, i, 0]
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = x, y, z
-        elif op == ANGLE:
+        elif op == ops.ANGLE:
             for i in range(n):
                 ux, uy, uz = _unit(reg[a, i, 0], reg[a, i, 1], reg[a, i, 2])
                 vx, vy, vz = _unit(reg[b, i, 0], reg[b, i, 1], reg[b, i, 2])
                 value = math.acos(min(max(ux * vx + uy * vy + uz * vz, -1.0), 1.0))
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = value, value, value
-        elif op == INTERP:
+        elif op == ops.INTERP:
             for i in range(n):
                 _interp(reg, dst, i, reg[a, i, 0], b, c, e)
-        elif op == HORIZONTAL:
+        elif op == ops.HORIZONTAL:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = reg[a, i, 0], reg[a, i, 1], 0.0
-        elif op == HEADING:
+        elif op == ops.HEADING:
             for i in range(n):
                 x, y, z = reg[a, i, 0], reg[a, i, 1], reg[a, i, 2]
                 for k in range(3):
                     reg[dst, i, k] = heading[i, k, 0] * x + heading[i, k, 1] * y + heading[i, k, 2] * z
-        elif op == BODYROT:
+        elif op == ops.BODYROT:
             for i in range(n):
                 x, y, z, body = reg[a, i, 0], reg[a, i, 1], reg[a, i, 2], frame_body[b, i]
                 for k in range(3):
                     reg[dst, i, k] = xmat[body, 3 * k] * x + xmat[body, 3 * k + 1] * y + xmat[body, 3 * k + 2] * z
-        elif op == POINT:
+        elif op == ops.POINT:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = _point(
                     xpos, xmat, point_body[a, i], point_offset[a, i]
                 )
-        elif op == VELOCITY:
+        elif op == ops.VELOCITY:
             for i in range(n):
                 body = point_body[a, i]
                 px, py, pz = _point(xpos, xmat, body, point_offset[a, i])
@@ -481,18 +457,18 @@ def run(
                 reg[dst, i, 0] = cvel[body, 3] + (wy * rz - wz * ry)
                 reg[dst, i, 1] = cvel[body, 4] + (wz * rx - wx * rz)
                 reg[dst, i, 2] = cvel[body, 5] + (wx * ry - wy * rx)
-        elif op == CONTACT:
+        elif op == ops.CONTACT:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = contact[i, a]
-        elif op == PHASE:
+        elif op == ops.PHASE:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = _wrap(phase[a, i])
-        elif op == TIS:
+        elif op == ops.TIS:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = time_in_state[a, i]
-        elif op == TIME:
+        elif op == ops.TIME:
             reg[dst, :, :] = time
-        elif op == GROUND_NORMAL:
+        elif op == ops.GROUND_NORMAL:
             for i in range(n):
                 x = y = z = 0.0
                 for leg in range(LEG_COUNT):
@@ -505,22 +481,22 @@ def run(
                     reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = x / length, y / length, z / length
                 else:
                     reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = 0.0, 0.0, 1.0
-        elif op == HEIGHT:
+        elif op == ops.HEIGHT:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = _ground_height(model, data, reg[a, i])
-        elif op == MASK:
+        elif op == ops.MASK:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = 1.0 if state[a, i] == b else 0.0
-        elif op == JUMP_IF_NONE:
+        elif op == ops.JUMP_IF_NONE:
             none = True
             for i in range(n):
                 if reg[a, i, 0] != 0.0:
                     none = False
             if none:
                 pc = b
-        elif op == ZERO:
+        elif op == ops.ZERO:
             reg[dst, :, :] = 0.0
-        elif op == SMOOTH:
+        elif op == ops.SMOOTH:
             for i in range(n):
                 if sensor_ready[c] != 0:
                     weight = dt / (reg[b, i, 0] + dt)
@@ -530,10 +506,10 @@ def run(
                     for k in range(3):
                         reg[dst, i, k] = reg[a, i, k]
             sensor_ready[c] = 1
-        elif op == ADVANCE:
+        elif op == ops.ADVANCE:
             for i in range(n):
                 phase[a, i] += dt / max(reg[b, i, 0], MIN_PERIOD_S)
-        elif op == TRANSITION:
+        elif op == ops.TRANSITION:
             for i in range(n):
                 fires = (
                     reg[dst, i, 0] == 0.0
@@ -545,7 +521,7 @@ def run(
                     state[c, i] = d
                     time_in_state[c, i] = 0.0
                     reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = 1.0
-        elif op == FORCE:
+        elif op == ops.FORCE:
             sign = -1.0 if e else 1.0
             for i in range(n):
                 body = slot_body[dst, i]
@@ -563,7 +539,7 @@ def run(
                 xfrc[body, 3] += ry * fz - rz * fy
                 xfrc[body, 4] += rz * fx - rx * fz
                 xfrc[body, 5] += rx * fy - ry * fx
-        elif op == SPRING:
+        elif op == ops.SPRING:
             for j in range(spring_start[dst], spring_start[dst + 1]):
                 for i in range(n):
                     target = reg[a, i, 0] if spring_twist[j, i] != 0 else 0.0

@@ -30,7 +30,7 @@ import numpy as np
 from quadpipe.anatomy.roles import LEGS
 from quadpipe.controllers.language import schema
 from quadpipe.controllers.language.compiler import CompiledController, CompiledElement
-from quadpipe.controllers.runtime.kernel import (
+from quadpipe.controllers.runtime.ops import (
     ABS,
     ACOS,
     ADD,
@@ -260,7 +260,7 @@ class _Lowerer:
         """An operation on registers (shared with an identical earlier one).
 
         Elementwise ops get flags telling which of the result and operands are vectors
-        (`kernel.VECTOR_RESULT` and the next flags); the others read only their register operands.
+        (`ops.VECTOR_RESULT` and the next flags); the others read only their register operands.
         """
         operands = (a, b, c)[: OPERANDS.get(op, 3)]
         needs = frozenset().union(*(self.memo.needs.get(r, frozenset()) for r in operands))

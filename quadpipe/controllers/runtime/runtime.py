@@ -37,17 +37,18 @@ from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.language.loader import CONTROLLER_KIND, merge_controller
 from quadpipe.controllers.runtime.folding import fold
 from quadpipe.controllers.runtime.kernel import (
+    CODE_DTYPE,
     HEADING_MIN_NORM,
     INTEGER_ARRAYS,
     MUJOCO_ARRAYS,
     NO_FAULT,
     REAL_ARRAYS,
-    address_row,
-    address_table,
+    program_array,
     run,
 )
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
 from quadpipe.controllers.runtime.variation import StrideClock, Variation
+from quadpipe.controllers.runtime.views import address_row, address_table, contact_row
 from quadpipe.core import configs
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities.units import scale_for_animals
@@ -116,15 +117,18 @@ class ControllerRuntime:
         registers = np.zeros((self.program.registers, self.n, 3))
         for register, value in self.program.constants.items():
             registers[register] = value
-        arrays = {"code": self.program.code, "registers": registers}
-        arrays |= self._bind(self.program) | self._initial_state(self.program)
-        self._arrays = {name: np.ascontiguousarray(arrays[name], np.int64) for name in INTEGER_ARRAYS} | {
-            name: np.ascontiguousarray(arrays[name], np.float64) for name in REAL_ARRAYS
-        }
+        arrays = {"registers": registers} | self._bind(self.program) | self._initial_state(self.program)
+        self._arrays = (
+            {"code": program_array(self.program.code)}
+            | {name: np.ascontiguousarray(arrays[name], np.int64) for name in INTEGER_ARRAYS}
+            | {name: np.ascontiguousarray(arrays[name], np.float64) for name in REAL_ARRAYS}
+        )
         self._registers = self._arrays["registers"]
-        self._own_rows = [address_row(self._arrays[name], np.int64) for name in INTEGER_ARRAYS] + [
-            address_row(self._arrays[name], np.float64) for name in REAL_ARRAYS
-        ]
+        self._own_rows = (
+            [address_row(self._arrays["code"], CODE_DTYPE)]
+            + [address_row(self._arrays[name], np.int64) for name in INTEGER_ARRAYS]
+            + [address_row(self._arrays[name], np.float64) for name in REAL_ARRAYS]
+        )
         self._last: AppliedForces | None = None
         self.fault: str | None = None
         """The first non-finite force or spring value an element computed (None: none so far)."""
@@ -286,9 +290,8 @@ class ControllerRuntime:
 
     def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:
         """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
-        table = self._address_table(data)
-        geoms, frames = self._contacts
-        fault = run(table, self.dt, 0, last, finish, data.time, data.ncon, geoms, frames)
+        table = self._table if self._table_for is data else self._address_table(data)
+        fault = run(table, self.dt, 0, last, finish, data.time, data.ncon)
         if fault != NO_FAULT and self.fault is None:
             self.fault = self._describe_fault(fault)
 
@@ -304,16 +307,16 @@ class ControllerRuntime:
     @staticmethod
     def _contact_arrays(data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """The geoms and frames of every contact `data` can hold: strided views into MuJoCo's
-        contact structs, of which the kernel reads the first `ncon` rows.
+        contact structs, as many rows as the arena holds contacts, of which the kernel reads
+        the first `ncon` (through their rows of the address table, `kernel.contact_row`).
 
         MuJoCo keeps its contacts at the start of the data's arena, so these views stay valid
         for the data's lifetime: made once per data (`data.contact` makes its views anew on
-        every read, ~2 µs a step). Each has as many rows as the arena holds contacts (at least
-        two: one row would count as contiguous, a different argument type that numba would
-        load a second kernel for).
+        every read, ~2 µs a step), they are no argument of the kernel's call (numba converts
+        each array argument on every call).
         """
         contacts = data.contact
-        rows = max(2, data.narena // contacts.geom.strides[0])
+        rows = data.narena // contacts.geom.strides[0]
 
         def every_row(view: np.ndarray) -> np.ndarray:
             return np.lib.stride_tricks.as_strided(view, (rows, view.shape[1]), view.strides)
@@ -321,18 +324,19 @@ class ControllerRuntime:
         return every_row(contacts.geom), every_row(contacts.frame)
 
     def _address_table(self, data: mujoco.MjData) -> np.ndarray:
-        """The kernel's address table (`kernel.address_table`): this runtime's arrays, then
-        `data`'s and the model's (their addresses stay the same for the data's lifetime, and
-        the runtime keeps the data it was last run on, and its contact views, `_contacts`)."""
-        if self._table_for is not data:
-            self._contacts = self._contact_arrays(data)
-            mujoco_arrays = [getattr(data, name) for name in MUJOCO_ARRAYS[:-1]] + [self.model.dof_damping]
-            self._table = address_table(
-                self._own_rows
-                + [address_row(array, np.float64) for array in mujoco_arrays]
-                + [(self.model._address, 0, 0, 0), (data._address, 0, 0, 0)]
-            )
-            self._table_for = data
+        """The kernel's address table (`kernel.address_table`) for `data`: this runtime's arrays,
+        then `data`'s and the model's, and `data`'s contacts (`_contacts`). Their addresses stay
+        the same for the data's lifetime: the runtime keeps the table for the data it was last
+        run on (`_table_for`)."""
+        self._contacts = self._contact_arrays(data)
+        mujoco_arrays = [getattr(data, name) for name in MUJOCO_ARRAYS[:-1]] + [self.model.dof_damping]
+        self._table = address_table(
+            self._own_rows
+            + [address_row(array, np.float64) for array in mujoco_arrays]
+            + [contact_row(view) for view in self._contacts]
+            + [(self.model._address, 0, 0, 0), (data._address, 0, 0, 0)]
+        )
+        self._table_for = data
         return self._table
 
     @property

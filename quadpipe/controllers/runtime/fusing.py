@@ -1,0 +1,84 @@
+"""Fusing pairs of a folded program's instructions into one: fewer dispatches, the same bits.
+
+The kernel pays most of an arithmetic instruction's cost in choosing what to do (reading the
+row, branching on its op), not in the arithmetic. The commonest pairs in the shipped programs
+are a product or a difference whose only reader is the very next instruction, as its operand
+`b`: the spring-damper terms `k * (x - x0)` and `x - c * v`, the scalings `a * (w * s)` and
+`a + w * s`. `fuse(code, removed, kept_registers)` turns each such reader into one op of three
+operands (`FUSED`: `a - b * c`, `a * (b - c)`, `a * (b * c)`, `a + b * c`), computed by the
+same IEEE operations in the same order, so its result is bit-for-bit the pair's; the first
+instruction of the pair is then read by nothing and dropped with the dead code
+(`quadpipe.controllers.runtime.folding`).
+
+A pair is fused only when the two are adjacent (nothing can change the first one's operands in
+between) and the second is no jump target; the first's result must be read by the second alone
+(not by a later instruction, a sensor or the runtime), and be a vector exactly where the second
+reads it as one.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from quadpipe.controllers.runtime.ops import (
+    ADD,
+    ADD_MUL,
+    JUMP_IF_NONE,
+    MUL,
+    MUL_MUL,
+    MUL_SUB,
+    SUB,
+    SUB_MUL,
+    VECTOR_A,
+    VECTOR_B,
+    VECTOR_C,
+    VECTOR_RESULT,
+)
+
+OP, DST, A, B, C, E = 0, 1, 2, 3, 4, 6
+"""Columns of an instruction (`ops.CODE_WIDTH`): op, dst, a, b, c, d, e."""
+
+FUSED: dict[tuple[int, int], int] = {(SUB, MUL): SUB_MUL, (MUL, SUB): MUL_SUB, (MUL, MUL): MUL_MUL, (ADD, MUL): ADD_MUL}
+"""(the reader's op, the op of its operand `b`) -> the fused op: `reader(a, inner(b, c))`."""
+
+
+def fuse(code: np.ndarray, removed: set[int], read: dict[int, int], kept_registers: set[int]) -> int:
+    """Fuse the pairs of `code` that qualify (see the module docstring), in place; how many.
+
+    Args:
+        code: the program's rows; a fused reader is rewritten, its producer left to dead code.
+        removed: rows already dropped (neither producer nor reader).
+        read: how many times the kept rows read each register (a row reading it twice: 2).
+        kept_registers: registers read from outside the program (sensors), never fused away.
+    """
+    targets = {int(row[B]) for row in code if row[OP] == JUMP_IF_NONE}
+    fused = 0
+    for index in range(1, len(code)):
+        inner, outer = code[index - 1], code[index]
+        if index in targets or index in removed or index - 1 in removed:
+            continue
+        op = FUSED.get((int(outer[OP]), int(inner[OP])))
+        produced = int(inner[DST])
+        if op is None or int(outer[B]) != produced or read.get(produced) != 1:
+            continue
+        if produced in kept_registers or not _same_width(int(inner[E]), int(outer[E])):
+            continue
+        outer[E] = _fused_flags(int(inner[E]), int(outer[E]))
+        outer[OP], outer[B], outer[C] = op, inner[A], inner[B]
+        fused += 1
+    return fused
+
+
+def _same_width(inner: int, outer: int) -> bool:
+    """Whether the reader reads the produced value as what it is: a vector operand of a vector
+    result only where the producer made a vector (a scalar result reads first components only)."""
+    return not (outer & VECTOR_RESULT and outer & VECTOR_B) or bool(inner & VECTOR_RESULT)
+
+
+def _fused_flags(inner: int, outer: int) -> int:
+    """The vector flags of the fused op: the reader's result and `a`; the producer's `a` and `b`
+    as its `b` and `c` where the reader reads the produced vector component by component."""
+    by_component = outer & VECTOR_RESULT and outer & VECTOR_B
+    b = VECTOR_B if by_component and inner & VECTOR_A else 0
+    c = VECTOR_C if by_component and inner & VECTOR_B else 0
+    return (outer & (VECTOR_RESULT | VECTOR_A)) | b | c
