@@ -136,6 +136,8 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float, ahe
       bends (rad/s, counter-clockwise; see `_yaw_rate_text`);
     - `path_speed`: the asked speed now (0 while standing);
     - `path_stand`: 0 while moving, 1 while standing, a smooth ramp between;
+    - `path_arriving`: 1 while the animal stands where a move brought it (a stop, or a hold
+      in no pose, right after a move), 0 otherwise;
     - `path_look` and `path_looking`: the point a beat looks at, and 1 while one does (0
       while looking ahead), ramping like a stand;
     - `path_sit` and `path_lie`: 1 while a hold sits (lies), with ramps down and up;
@@ -159,6 +161,7 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float, ahe
             [(seg.start, seg.speed) for seg in timeline.segments] + [(timeline.end, 0.0)], "m/s"
         ),
         "path_stand": _stand_text(timeline.stands(), ramp),
+        "path_arriving": _number_steps_text(_arrivals(timeline.segments), ""),
         **_look_texts(timeline.segments, ramp),
         **_pose_texts(timeline.segments, POSE_RAMP_NATURAL * natural_time),
         **_turn_texts(timeline.segments, TURN_RAMP_NATURAL * natural_time),
@@ -312,6 +315,16 @@ def _yaw_rate_text(timeline: Timeline) -> str:
 def _number_steps_text(values: Sequence[tuple[float, float]], unit: str) -> str:
     """A piecewise-constant value in time as text: `values[0]` then a step at each change."""
     return steps_text([(when, f"{number_text(value, DIRECTION_DIGITS)} {unit}") for when, value in values])
+
+
+def _arrivals(segments: Sequence[Segment]) -> list[tuple[float, float]]:
+    """From each beat's start, 1 for a stand that ends a move (a stop, or a hold in no pose,
+    right after a move: the animal should stand on the move's mark), 0 for the others."""
+    values = [(0.0, 0.0)]
+    for before, seg in zip(segments, segments[1:]):
+        ends_a_move = before.kind == "move" and seg.kind in ("hold", "stop") and seg.pose == "stand"
+        values.append((seg.start, float(ends_a_move)))
+    return values
 
 
 def _stand_text(stands: Sequence[tuple[float, float]], ramp: float) -> str:
