@@ -510,17 +510,8 @@ def shot_length(animal: str, direction: Path | None = None, scene: str | None = 
     return timeline.end
 
 
-SPEED_SHORTFALLS = {
-    "rat": "the trot runs 6.6 % slow (5 allowed): it is 0.25 HP behind its place as the stop's fade begins, "
-    "and walks on to its mark after it",
-}
-"""Animals whose stop-and-go shot does not yet keep its speed, with their figures (strict expected failures)."""
-
-
 @pytest.mark.slow
-def test_speed_is_tracked_on_every_long_stretch(stop_and_go: DirectionReport, request: pytest.FixtureRequest) -> None:
-    if stop_and_go.animal in SPEED_SHORTFALLS:
-        request.applymarker(pytest.mark.xfail(strict=True, reason=SPEED_SHORTFALLS[stop_and_go.animal]))
+def test_speed_is_tracked_on_every_long_stretch(stop_and_go: DirectionReport) -> None:
     long = [b for b in stop_and_go.beats if b.kind == "move" and b.strides >= MEASURED_STRIDES]
     assert len(long) == 2, "the walk and the trot are long enough to measure"
     for beat in long:
@@ -545,6 +536,7 @@ END_ASIDE_HP = 0.1
 END_SHORTFALLS = {
     "bear": "the pelvis stands 0.13 HP to the side of the path",
     "elephant": "it stands facing 18 degrees off the path",
+    "rat": "it stands facing 8.8 degrees off the path",
 }
 """Animals that do not yet stand square on their last mark, with their figures (strict expected failures)."""
 
@@ -593,8 +585,9 @@ DIRECTED_POSTURE_SHORTFALLS = {
     ("goat", "trot"): "the carpus flexes 10.8 deg in stance",
     ("pig", "trot"): "the carpus flexes 7.3 deg in stance (5 allowed)",
     ("horse", "trot"): "the elbow closes 15.2 deg in stance (15 allowed)",
-    ("rat", "trot"): "the legs buckle: elbow 84.6, carpus 88.8, knee 74.8, hock 54.3 deg",
-    ("rat", "walk"): "the knee closes 51.6 deg and the hock 33.0 in stance",
+    ("rat", "trot"): "carried crouched (its config's `upright: 0`, as small mammals run): elbow 83, carpus 84, "
+    "knee 25, hock 17 deg beyond standing",
+    ("rat", "walk"): "carried crouched (its config's `upright: 0`): elbow 44, carpus 52, knee 18 deg, roll 17.8 deg",
     ("elephant", "trot"): "asked Fr 0.6 the elephant ambles (it does not trot), on the base's crouched legs as "
     "auto_gait's amble does: elbow 56, carpus 54, knee 36, hock 35 deg, pelvis 0.88 of standing",
 }

@@ -13,8 +13,9 @@ carries the thesis's pelvis height and a real body mass:
       trot: {froude: [0.35, 3]}
       gallop: {froude: [2, 5], sequence: rotary}
     walk_fold: 1                # share of the runners' swing fold at a walk (the elephant's small), cited
+    upright: 1                  # carried on straight legs by auto_gait and direct (the rat's 0: crouched)
 
-The repertoire and the swing fold reach the controllers as parameters they may declare (see
+The repertoire, the swing fold and the upright carriage reach the controllers as parameters they may declare (see
 `repertoire_parameters`), and a gait controller the species does not use runs with a warning
 (`gait_warning`).
 """
@@ -49,6 +50,7 @@ MASS_AT_ONE_METRE_KG = 226.0
 1.5 (rms); the dog, tall for its mass, comes out at 68 kg rather than 30."""
 
 DEFAULT_WALK_FOLD = 1.0
+DEFAULT_UPRIGHT = 1.0
 """The walk's swing fold, as a share of the runners' (`locomotion`'s `fold_angle`), of an animal
 whose config gives none or made from bare files: the dog's, all of it."""
 
@@ -114,6 +116,13 @@ class AnimalConfig(BaseModel):
         "walk, as a share of how far at running speeds (`fold_angle`, 90 deg): all of it for a dog or a horse, "
         "a third for an elephant, which swings its legs little bent.",
     )
+    upright: float = Field(
+        DEFAULT_UPRIGHT,
+        ge=0.0,
+        le=1.0,
+        description="How far `auto_gait` and `direct` carry the species on straight, weight-bearing legs at a walk "
+        "and a trot (1), rather than on the crouched legs of a small mammal (0: Biewener 1989, Science 245:45).",
+    )
 
 
 @dataclass(frozen=True)
@@ -132,6 +141,8 @@ class Animal:
         gaits_at: where the repertoire was written (its config's `gaits:`), for messages.
         walk_fold: how far the legs fold in mid-swing at a walk, as a share of the runners' fold.
         walk_fold_at: where the walk's fold was written (its config's `walk_fold:`).
+        upright: how far `auto_gait` and `direct` carry it on straight, weight-bearing legs.
+        upright_at: where that was written (its config's `upright:`).
     """
 
     name: str
@@ -145,6 +156,8 @@ class Animal:
     gaits_at: Location | None = None
     walk_fold: float = DEFAULT_WALK_FOLD
     walk_fold_at: Location | None = None
+    upright: float = DEFAULT_UPRIGHT
+    upright_at: Location | None = None
 
 
 def load_animal(name_or_path: str | Path | AnimalSource) -> Animal:
@@ -199,6 +212,8 @@ def load_animal(name_or_path: str | Path | AnimalSource) -> Animal:
         doc.locate(("gaits",)),
         config.walk_fold,
         doc.locate(("walk_fold",)),
+        config.upright,
+        doc.locate(("upright",)),
     )
 
 
@@ -356,6 +371,9 @@ def _refuse_skeleton_options(source: str | Path, options: dict[str, object]) -> 
 WALK_FOLD_PARAMETER = "walk_fold"
 """The controller parameter the species' walking swing fold is offered as (configs/controllers/locomotion.yaml)."""
 
+UPRIGHT_PARAMETER = "upright"
+"""The controller parameter the species' upright carriage is offered as (configs/controllers/auto_gait.yaml)."""
+
 
 def repertoire_parameters(animal: Animal) -> dict[str, str]:
     """The species' repertoire as controller parameter values (YAML text), offered to a
@@ -363,8 +381,9 @@ def repertoire_parameters(animal: Animal) -> dict[str, str]:
 
     For every gait of `GAIT_NAMES`: `uses_<gait>` (1 or 0) and, for a gait it uses,
     `<gait>_froude_min` and `<gait>_froude_max`; `top_froude`, the top of the fastest;
-    `gallop_rotary`, 1 for a rotary gallop (0 for a transverse one or none); and `walk_fold`,
-    how far its legs fold in mid-swing at a walk (a share of the runners' fold).
+    `gallop_rotary`, 1 for a rotary gallop (0 for a transverse one or none); `walk_fold`,
+    how far its legs fold in mid-swing at a walk (a share of the runners' fold); and
+    `upright`, how far `auto_gait` carries it on straight, weight-bearing legs.
     """
     values = {f"uses_{name}": "1" if name in animal.gaits else "0" for name in GAIT_NAMES}
     for name, use in animal.gaits.items():
@@ -373,12 +392,14 @@ def repertoire_parameters(animal: Animal) -> dict[str, str]:
     gallop = animal.gaits.get("gallop")
     values["gallop_rotary"] = "1" if gallop is not None and gallop.sequence == "rotary" else "0"
     values[WALK_FOLD_PARAMETER] = f"{animal.walk_fold:g}"
+    values[UPRIGHT_PARAMETER] = f"{animal.upright:g}"
     return values
 
 
 def repertoire_place(animal: Animal, name: str) -> Location | None:
     """Where the animal's config wrote the value of repertoire parameter `name`, for messages."""
-    return animal.walk_fold_at if name == WALK_FOLD_PARAMETER else animal.gaits_at
+    places = {WALK_FOLD_PARAMETER: animal.walk_fold_at, UPRIGHT_PARAMETER: animal.upright_at}
+    return places.get(name, animal.gaits_at)
 
 
 def gait_warning(animal: Animal, controller: str) -> Issue | None:
