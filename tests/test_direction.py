@@ -617,7 +617,7 @@ def test_directed_walks_and_trots_bear_weight(
     """Issue #13's weight-bearing figures (tests/test_gaits.py's bands) on `direct`'s walk and trot."""
     from quadpipe.analysis.carriage import posture_report
     from quadpipe.animals.sizing import natural_time
-    from tests.test_gaits import MAX_ROLL_AMPLITUDE_DEG, MAX_STANCE_CLOSING_DEG, MIN_PELVIS_HEIGHT_RATIO
+    from tests.test_gaits import MAX_ROLL_AMPLITUDE_DEG, MAX_STANCE_CLOSING_DEG, MIN_PELVIS_HEIGHT_RATIO, stance_closing
 
     if (stop_and_go.animal, gait) in DIRECTED_POSTURE_SHORTFALLS:
         reason = DIRECTED_POSTURE_SHORTFALLS[stop_and_go.animal, gait]
@@ -626,7 +626,7 @@ def test_directed_walks_and_trots_bear_weight(
     settle = STEADY_SETTLE_NATURAL * natural_time(stop_and_go_clip.animals[0].pelvis_height)
     steady = between(stop_and_go_clip, move.asked_start_s + settle, move.asked_end_s - settle)
     posture = posture_report(steady, settle_natural_times=0).animals[0]
-    closing = {joint: posture.worst_stance_flexion_deg(joint) or 0.0 for joint in MAX_STANCE_CLOSING_DEG}
+    closing = stance_closing(posture)
     trunk = posture.trunk
     figures = f"{closing}, pelvis {trunk.pelvis_height_ratio:.3f} of standing, roll {trunk.roll_amplitude_deg:.1f} deg"
     assert all(closing[joint] <= limit for joint, limit in MAX_STANCE_CLOSING_DEG.items()), figures
