@@ -134,7 +134,7 @@ def test_a_swinging_foot_clears_the_ground(animal, gait):
 
 
 # --------------------------------------------------------------------------- the feet's tunables
-# locomotion's `landing_share`, `unload` and `front_trailing_reach` are off in the shipped gaits
+# locomotion's `landing_share`, `unload` and `front_trailing_straight` are off in the shipped gaits
 # (docs/gaits.md, "Soft landings", "Clean feet": on, they take some walks' footfalls off their
 # phases or their time on the ground under 0.55); an animator may turn them on.
 
@@ -163,13 +163,13 @@ def test_unload_lets_the_toe_go_of_the_ground_before_it_lifts():
 
 
 CLEANER_TRAILING = 0.5
-"""`front_trailing_reach: 1` leaves at most this fraction of the dog's walking toe drag
+"""`front_trailing_straight: 1` leaves at most this fraction of the dog's walking toe drag
 (measured 6.3 -> 1.9 % HP on the 20 s walk)."""
 
 
 @pytest.mark.slow
 def test_a_trailing_leg_that_stops_pressing_where_it_cannot_reach_lifts_its_toe_cleanly():
     pressed = measure("dog", "walk").posture.worst("toe_drag_max_hp")
-    released = measure("dog", "walk", front_trailing_reach="1").posture.worst("toe_drag_max_hp")
+    released = measure("dog", "walk", front_trailing_straight="1").posture.worst("toe_drag_max_hp")
     assert pressed is not None and released is not None, "no complete stance measured"
     assert released <= CLEANER_TRAILING * pressed, (pressed, released)
