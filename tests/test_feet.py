@@ -49,7 +49,7 @@ SHORTFALLS: dict[str, dict[tuple[str, str], str]] = {
         ("bear", "walk"): "a toe travels 6.2 % HP along the ground before lift-off",
         ("cat", "walk"): "a toe travels 4.5 % HP along the ground before lift-off",
         ("cow", "walk"): "a toe travels 7.2 % HP along the ground before lift-off",
-        ("dog", "walk"): "a toe travels 7.4 % HP along the ground before lift-off",
+        ("dog", "walk"): "a toe travels 6.3 % HP along the ground before lift-off",
         ("goat", "walk"): "a toe travels 7.0 % HP along the ground before lift-off",
         ("horse", "walk"): "a toe travels 6.7 % HP along the ground before lift-off",
         ("pig", "walk"): "a toe travels 6.7 % HP along the ground before lift-off",
@@ -61,7 +61,7 @@ SHORTFALLS: dict[str, dict[tuple[str, str], str]] = {
     "sink": {
         ("cat", "walk"): "feet sink 4.0 % HP landing, 0.1 % HP resting",
         ("cow", "walk"): "feet sink 1.8 % HP landing, 0.1 % HP resting",
-        ("dog", "walk"): "feet sink 2.2 % HP landing, 0.3 % HP resting",
+        ("dog", "walk"): "feet sink 1.8 % HP landing, 0.3 % HP resting",
         ("goat", "walk"): "feet sink 1.8 % HP landing, 0.1 % HP resting",
         ("horse", "walk"): "feet sink 1.6 % HP landing, 0.1 % HP resting",
         ("lion", "walk"): "feet sink 3.3 % HP landing, 0.1 % HP resting",
