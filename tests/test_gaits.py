@@ -720,6 +720,29 @@ def test_each_foot_is_down_as_long_as_its_gait_asks(animal, gait):
     assert all(abs(duty - asked) <= DUTY_TOLERANCE for duty in duties.values()), (asked, duties)
 
 
+TROT_ON_THE_GROUND = {
+    "bounce": "0",
+    "contact_share": "1",
+    "stance_stiffness": "2 bw/HP",
+    "hind_give": "5 deg",
+}
+"""The trial against the trot's flight (docs/gaits.md, "Why the trot flies"): the weight shared
+among the feet on the ground, softer stance couples, hind knees and hocks that give; not
+shipped (it slows the hoofed animals' trot)."""
+
+
+@pytest.mark.slow
+def test_the_trot_trial_keeps_the_dogs_feet_on_the_ground():
+    """With `contact_share` and `hind_give` the dog's trot stops hopping: every foot down for
+    the trot's duty factor and a fraction of the frames with no foot down, the footfalls kept."""
+    shipped = measure("dog", "trot")
+    trial = measure("dog", "trot", **TROT_ON_THE_GROUND)
+    duties = {leg: trial.gait.legs[leg].duty_factor for leg in roles.LEGS}
+    assert all(abs(duty - 0.45) <= DUTY_TOLERANCE for duty in duties.values()), duties
+    assert trial.airborne < shipped.airborne / 3, (trial.airborne, shipped.airborne)
+    assert max(phase_errors(trial.gait, GAIT_PHASES["trot"]).values()) <= PHASE_TOLERANCE, describe(trial.gait)
+
+
 # --------------------------------------------------------------------------- head and tail carriage (#13)
 
 MAX_HEAD_DROP_HP = 0.15
