@@ -35,6 +35,7 @@ from quadpipe.animals.library import repertoire_parameters, repertoire_place
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.language.loader import CONTROLLER_KIND, merge_controller
+from quadpipe.controllers.runtime.allocation import allocate
 from quadpipe.controllers.runtime.folding import fold
 from quadpipe.controllers.runtime.kernel import (
     CODE_DTYPE,
@@ -90,7 +91,8 @@ class ControllerRuntime:
         variation: seeded stride-to-stride variation of every cycle (`quadpipe.controllers.runtime.variation`);
             None: none, every stride alike.
         folded: run the program folded (`quadpipe.controllers.runtime.folding`: the same forces from
-            fewer instructions); False runs it as lowered, to check or time the folding.
+            fewer instructions) with its temporaries sharing registers
+            (`quadpipe.controllers.runtime.allocation`); False runs it as lowered, to check or time them.
     """
 
     def __init__(
@@ -113,7 +115,7 @@ class ControllerRuntime:
         for index, row in enumerate(self._bodies):
             self._animal_of_body[row] = index
         lowered = lower(compiled, self.gravity)
-        self.program = fold(lowered) if folded else lowered
+        self.program = allocate(fold(lowered)) if folded else lowered
         registers = np.zeros((self.program.registers, self.n, 3))
         for register, value in self.program.constants.items():
             registers[register] = value
