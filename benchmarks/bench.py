@@ -398,7 +398,7 @@ def bench_controllers(ctx: Context) -> Section:
         [
             f"{ctx.plan.controller_seconds:g} s simulated per repetition, {ctx.plan.repeats} repetitions, scene `{BENCH_SCENE}`;"
             " overhead = with / bare - 1; own = time inside the controller's `apply` per step (in the `with` run),"
-            " less the clock reads' own part (as many windows timed around nothing, right after the run),"
+            " less the clock reads' own part (own_clock: as many windows timed around nothing, right after the run),"
             " own_share = own / bare; realtime = simulated s per wall s",
             "clock: this thread's CPU time (--cpu-time)" if ctx.plan.cpu_time else "clock: wall time",
             *(
@@ -435,6 +435,7 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
     controlled: dict[bool, list[float]] = {folded: [] for folded in variants}
     own: dict[bool, list[float]] = {folded: [] for folded in variants}
     bare: list[float] = []
+    floors: list[float] = []
     statuses: list[str] = []
     try:
         step_run(world.controlled_run(controller), WARM_UP_STEPS)
@@ -443,7 +444,9 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
                 run = world.controlled_run(controller, folded)
                 timers = timed_controllers(run, clock)
                 controlled[folded].append(timed(lambda run=run: step_run(run, steps), clock))
-                own[folded].append(sum(timer.seconds - timer.clock_floor(steps) for timer in timers))
+                floor = sum(timer.clock_floor(steps) for timer in timers)
+                own[folded].append(sum(timer.seconds for timer in timers) - floor)
+                floors.append(floor)
                 statuses.append(world.status())
             world.reset()
             bare.append(timed(lambda: world.step_bare(steps), clock))
@@ -454,6 +457,7 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
     if plan.unfolded:
         unfolded = step_figures(controlled[False], own[False], bare, steps, simulated)
         figures |= {f"{name}_unfolded": unfolded[name] for name in ("with", "overhead", "own", "own_share")}
+    figures["own_clock"] = figure([1e6 * s / steps for s in floors], "us/step")
     return Row(labels, figures, worst_status(statuses))
 
 
