@@ -398,6 +398,7 @@ def bench_controllers(ctx: Context) -> Section:
         [
             f"{ctx.plan.controller_seconds:g} s simulated per repetition, {ctx.plan.repeats} repetitions, scene `{BENCH_SCENE}`;"
             " overhead = with / bare - 1; own = time inside the controller's `apply` per step (in the `with` run),"
+            " less the clock reads' own part (own_clock: as many windows timed around nothing, right after the run),"
             " own_share = own / bare; realtime = simulated s per wall s",
             "clock: this thread's CPU time (--cpu-time)" if ctx.plan.cpu_time else "clock: wall time",
             *(
@@ -434,6 +435,7 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
     controlled: dict[bool, list[float]] = {folded: [] for folded in variants}
     own: dict[bool, list[float]] = {folded: [] for folded in variants}
     bare: list[float] = []
+    floors: list[float] = []
     statuses: list[str] = []
     try:
         step_run(world.controlled_run(controller), WARM_UP_STEPS)
@@ -442,7 +444,9 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
                 run = world.controlled_run(controller, folded)
                 timers = timed_controllers(run, clock)
                 controlled[folded].append(timed(lambda run=run: step_run(run, steps), clock))
-                own[folded].append(sum(timer.seconds for timer in timers))
+                floor = sum(timer.clock_floor(steps) for timer in timers)
+                own[folded].append(sum(timer.seconds for timer in timers) - floor)
+                floors.append(floor)
                 statuses.append(world.status())
             world.reset()
             bare.append(timed(lambda: world.step_bare(steps), clock))
@@ -453,6 +457,7 @@ def controller_row(world: World, animal: str, controller: str, plan: Plan) -> Ro
     if plan.unfolded:
         unfolded = step_figures(controlled[False], own[False], bare, steps, simulated)
         figures |= {f"{name}_unfolded": unfolded[name] for name in ("with", "overhead", "own", "own_share")}
+    figures["own_clock"] = figure([1e6 * s / steps for s in floors], "us/step")
     return Row(labels, figures, worst_status(statuses))
 
 
@@ -468,11 +473,23 @@ class TimedController:
         self.controller.apply(model, data)
         self.seconds += self.clock() - start
 
+    def clock_floor(self, windows: int) -> float:
+        """Seconds that `windows` windows timed as `apply` times one, around nothing, add up:
+        the part of the two clock reads inside each window (a `thread_time` read is a system
+        call, ~0.7-1.4 µs on the shared machine), to take off `seconds`."""
+        seconds = 0.0
+        for _ in range(windows):
+            start = self.clock()
+            seconds += self.clock() - start
+        return seconds
+
 
 def timed_controllers(run: Simulation, clock: Callable[[], float]) -> list[TimedController]:
     """Time every `apply` of `run`'s controllers from now on (the controller's own cost, without
     the physics of the motion it makes); the timers, whose `seconds` add up what they measured.
-    The two clock reads per step (~0.1 µs) count in the run's `with`."""
+    The two clock reads per step count in the run's `with` (~0.1 µs of wall time, ~1.5-3 µs of
+    `thread_time`); their part inside the timed windows is measured after the run and taken off
+    `own` (`TimedController.clock_floor`)."""
     timers = [TimedController(controller, clock) for controller in run.controllers]
     run.controllers = list(timers)
     return timers
@@ -1124,6 +1141,38 @@ def load_report(path: Path) -> dict[str, Any]:
     return report
 
 
+def pool_reports(reports: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """One report of several runs of the same sections (alternated with another tree's runs, to
+    compare two trees at the same moments): every figure's samples of every run together, its
+    value their median (ratios stay the per-repetition ratios of each run). The first report's
+    plan and machine; each run's start, commit and load in `pooled_from`."""
+    pooled = json.loads(json.dumps(reports[0]))
+    for name, section in pooled["sections"].items():
+        for row in section["rows"]:
+            for key, value in row["figures"].items():
+                value["samples"] = [
+                    sample
+                    for report in reports
+                    for other in report["sections"][name]["rows"]
+                    if other["labels"] == row["labels"] and key in other["figures"]
+                    for sample in other["figures"][key]["samples"]
+                ]
+                value["value"] = statistics.median(value["samples"])
+        section["notes"].append(
+            f"pooled: the samples of {len(reports)} runs (pooled_from); value = median of all samples"
+        )
+    machines = [report["machine"] for report in reports]
+    pooled["pooled_from"] = [
+        {"started": report["started"]} | {key: machine.get(key) for key in POOLED_MACHINE_KEYS}
+        for report, machine in zip(reports, machines)
+    ]
+    return pooled
+
+
+POOLED_MACHINE_KEYS = ("git_commit", "git_dirty", "load_average_start", "load_average_end")
+"""What `pool_reports` keeps of each run's machine."""
+
+
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """The command line (see the module docstring)."""
     parser = argparse.ArgumentParser(description="quadpipe benchmarks (see benchmarks/README.md).")
@@ -1161,6 +1210,13 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         action="store_true",
         help="the controllers section also times each program unfolded, interleaved (the folding's gain)",
     )
+    parser.add_argument(
+        "--pool",
+        nargs="+",
+        type=Path,
+        metavar="JSON",
+        help="no run: pool these reports' samples (runs of one tree) into one, written to --json",
+    )
     args = parser.parse_args(argv)
     if args.compare and len(args.compare) > 2:
         parser.error("--compare takes OLD, or OLD NEW")
@@ -1170,6 +1226,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the benchmarks (or only compare two reports); return the exit status."""
     args = parse_args(argv)
+    if args.pool:
+        from quadpipe.core.atomic import write_text
+
+        write_text(args.json, json.dumps(pool_reports([load_report(path) for path in args.pool]), indent=1) + "\n")
+        print(f"wrote {args.json} (pooled from {len(args.pool)} reports)")
+        return 0
     if args.compare and len(args.compare) == 2:
         print_comparison(load_report(args.compare[0]), load_report(args.compare[1]))
         return 0

@@ -153,3 +153,12 @@ def test_compare_refuses_a_file_that_is_not_a_report(tmp_path: Path):
     done = run_bench("--compare", str(other), str(other))
     assert done.returncode != 0
     assert "not a quadpipe benchmark report" in done.stderr
+
+
+def test_pool_keeps_every_runs_samples_and_their_median(bench: ModuleType):
+    first, second = report(100.0, commit="abc"), report(300.0, commit="abc")
+    pooled = bench.pool_reports([first, second])
+    figure = pooled["sections"]["controllers"]["rows"][0]["figures"]["with"]
+    assert figure["samples"] == [100.0, 300.0] and figure["value"] == 200.0
+    assert [run["git_commit"] for run in pooled["pooled_from"]] == ["abc", "abc"]
+    assert first["sections"]["controllers"]["rows"][0]["figures"]["with"]["samples"] == [100.0], "the runs stay as read"

@@ -16,14 +16,14 @@ elementwise op's `e` holds the vector flags: which of its result and operands ar
 
 Arrays: the kernel reaches every array it reads or writes (the program, the registers, the
 runtime's tables and state, MuJoCo's data and model arrays) through one table of addresses
-(`views.address_table`), so a call passes one array where it would pass some thirty: numba
-converts each array argument on every call (~0.1-0.2 µs each), and views made from an
-address carry no reference count.
+(`views.address_table`), so a call passes one address where it would pass some thirty arrays:
+numba converts each array argument on every call (~0.1-0.2 µs each), an integer in ~0.04 µs,
+and views made from an address carry no reference count.
 
 One call of `run` does, in order:
 1. the prologue: foot contacts per animal and leg (from MuJoCo's contact list), the ground
    normal under each foot, and the heading frame of each animal;
-2. the instructions `first` to `last`;
+2. the instructions up to `last`;
 3. when `finish` is set, the epilogue: the joint damping written into the model and the time
    in state of every machine advanced by one step.
 """
@@ -37,7 +37,7 @@ import numpy as np
 
 from quadpipe.controllers.runtime import ops
 from quadpipe.controllers.runtime.mjlib import mj_ray
-from quadpipe.controllers.runtime.views import int32s2, ints1, ints2, reals1, reals2, reals3, uint32s2
+from quadpipe.controllers.runtime.views import int32s2, ints1, ints2, reals1, reals2, reals3, table_at, uint32s2
 
 ZERO_NORM = 1e-12
 """Vectors shorter than this have no direction (as in `expressions.ZERO_NORM`)."""
@@ -102,6 +102,8 @@ themselves (`MODEL`, `DATA`, for `mj_ray`)."""
 (XPOS, XMAT, XIPOS, CVEL, SUBTREE_COM, QPOS, QFRC, XFRC, DOF_DAMPING, CONTACT_GEOMS, CONTACT_FRAMES, MODEL, DATA) = (
     range(REGISTERS + len(REAL_ARRAYS), REGISTERS + len(REAL_ARRAYS) + len(MUJOCO_ARRAYS) + 4)
 )  # fmt: skip
+TABLE_ROWS = DATA + 1
+"""Rows of the address table."""
 
 
 def program_array(code: np.ndarray) -> np.ndarray:
@@ -336,12 +338,11 @@ def _headings(
 
 
 @numba.njit(cache=True, nogil=True)
-def run(
-    table: np.ndarray, dt: float, first: int, last: int, finish: bool, time: float, ncon: int
-) -> int:  # fmt: skip
-    """Run instructions `first` to `last` of a controller program (see the module docstring).
+def run(address: int, dt: float, last: int, finish: bool, time: float, ncon: int) -> int:
+    """Run the instructions of a controller program up to `last` (see the module docstring).
 
-    `table` holds the address and shape of every array the kernel uses (`views.address_table`): the
+    `address` is that of the address table (`TABLE_ROWS` rows, `views.address_table`), which
+    holds the address and shape of every array the kernel uses: the
     program, the registers, the runtime's tables and state, and MuJoCo's own arrays (forces
     are added into `xfrc_applied` and `qfrc_applied`, damping written into the model's
     `dof_damping`), and the addresses of the model and the data, for MuJoCo's ray casts
@@ -351,6 +352,7 @@ def run(
     A force or spring value that is NaN or infinite is not applied: `run` returns where it
     was (see `NO_FAULT`), for the runtime to report.
     """
+    table = table_at(address, TABLE_ROWS)
     code, reg = uint32s2(table, CODE), reals3(table, REGISTERS)
     n = reg.shape[1]
     point_body, frame_body = ints2(table, POINT_BODY), ints2(table, FRAME_BODY)
@@ -375,7 +377,7 @@ def run(
         slot_force[:] = 0.0
         damping[:] = 0.0
     fault = NO_FAULT
-    pc = first
+    pc = 0
     while pc < last:
         op, dst, a, b, c, d, e = (
             code[pc, 0],

@@ -35,6 +35,7 @@ from quadpipe.animals.library import repertoire_parameters, repertoire_place
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.language.loader import CONTROLLER_KIND, merge_controller
+from quadpipe.controllers.runtime.allocation import allocate
 from quadpipe.controllers.runtime.folding import fold
 from quadpipe.controllers.runtime.kernel import (
     CODE_DTYPE,
@@ -43,6 +44,7 @@ from quadpipe.controllers.runtime.kernel import (
     MUJOCO_ARRAYS,
     NO_FAULT,
     REAL_ARRAYS,
+    TABLE_ROWS,
     program_array,
     run,
 )
@@ -90,7 +92,8 @@ class ControllerRuntime:
         variation: seeded stride-to-stride variation of every cycle (`quadpipe.controllers.runtime.variation`);
             None: none, every stride alike.
         folded: run the program folded (`quadpipe.controllers.runtime.folding`: the same forces from
-            fewer instructions); False runs it as lowered, to check or time the folding.
+            fewer instructions) with its temporaries sharing registers
+            (`quadpipe.controllers.runtime.allocation`); False runs it as lowered, to check or time them.
     """
 
     def __init__(
@@ -113,7 +116,7 @@ class ControllerRuntime:
         for index, row in enumerate(self._bodies):
             self._animal_of_body[row] = index
         lowered = lower(compiled, self.gravity)
-        self.program = fold(lowered) if folded else lowered
+        self.program = allocate(fold(lowered)) if folded else lowered
         registers = np.zeros((self.program.registers, self.n, 3))
         for register, value in self.program.constants.items():
             registers[register] = value
@@ -132,8 +135,10 @@ class ControllerRuntime:
         self._last: AppliedForces | None = None
         self.fault: str | None = None
         """The first non-finite force or spring value an element computed (None: none so far)."""
+        self._length = len(self.program.code)
         self._table_for: mujoco.MjData | None = None
         self._table: np.ndarray  # set with `_table_for` by `_address_table`
+        self._table_address = 0  # the address of `_table`
         self._contacts: tuple[np.ndarray, np.ndarray]  # set with `_table_for` by `_address_table`
         self._clock = (
             StrideClock(variation, len(self.program.cycles), self.n) if variation and variation.active else None
@@ -280,18 +285,18 @@ class ControllerRuntime:
         difference of variation x dt / period: millionths of a cycle.
         """
         if self._clock is None:
-            self._run(data, len(self.program.code), finish=True)
+            self._run(data, self._length, True)
         else:
             phase = self._arrays["phase"]
             before = phase.copy()
-            self._run(data, len(self.program.code), finish=True)
+            self._run(data, self._length, True)
             self._clock.advance(before, phase)
         self._last = None
 
     def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:
         """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
-        table = self._table if self._table_for is data else self._address_table(data)
-        fault = run(table, self.dt, 0, last, finish, data.time, data.ncon)
+        table = self._table_address if self._table_for is data else self._address_table(data)
+        fault = run(table, self.dt, last, finish, data.time, data.ncon)
         if fault != NO_FAULT and self.fault is None:
             self.fault = self._describe_fault(fault)
 
@@ -323,11 +328,11 @@ class ControllerRuntime:
 
         return every_row(contacts.geom), every_row(contacts.frame)
 
-    def _address_table(self, data: mujoco.MjData) -> np.ndarray:
+    def _address_table(self, data: mujoco.MjData) -> int:
         """The kernel's address table (`kernel.address_table`) for `data`: this runtime's arrays,
         then `data`'s and the model's, and `data`'s contacts (`_contacts`). Their addresses stay
         the same for the data's lifetime: the runtime keeps the table for the data it was last
-        run on (`_table_for`)."""
+        run on (`_table_for`). Returns the table's address, as the kernel takes it."""
         self._contacts = self._contact_arrays(data)
         mujoco_arrays = [getattr(data, name) for name in MUJOCO_ARRAYS[:-1]] + [self.model.dof_damping]
         self._table = address_table(
@@ -336,8 +341,10 @@ class ControllerRuntime:
             + [contact_row(view) for view in self._contacts]
             + [(self.model._address, 0, 0, 0), (data._address, 0, 0, 0)]
         )
+        assert len(self._table) == TABLE_ROWS, "the runtime's table rows are the kernel's"
+        self._table_address = self._table.ctypes.data
         self._table_for = data
-        return self._table
+        return self._table_address
 
     @property
     def last(self) -> AppliedForces:

@@ -77,6 +77,13 @@ TABLE_WIDTH = 4
 """Columns of an address table row: the address, then up to three dimensions (missing ones 1)."""
 
 
+@numba.njit(cache=True)
+def table_at(address: int, rows: int) -> np.ndarray:
+    """The address table at `address`, `rows` rows: the kernel takes it by address, an integer,
+    which numba's dispatcher types faster than an array (~0.04 µs, where an array takes ~0.2)."""
+    return numba.carray(_pointer(address, numba.int64), (rows, TABLE_WIDTH))
+
+
 def address_row(array: np.ndarray, dtype: type) -> tuple[int, int, int, int]:
     """The address table row of a C-contiguous array of `dtype` (see `address_table`).
 
