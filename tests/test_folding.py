@@ -103,3 +103,22 @@ def test_a_spring_at_zero_stiffness_and_damping_is_dropped() -> None:
     )
     assert len(limp.code) < len(walk.code)
     assert limp.slots == walk.slots, "every force slot stays (overlays and metrics read them)"
+
+
+NEUTRAL_TUNABLES = {
+    "contact_springs": "0.5",
+    "front_trailing_straight": "0.5",
+    "hind_trailing_straight": "0.5",
+    "contact_share": "0.5",
+    "hind_give": "5 deg",
+}
+"""`locomotion` tunables whose default keeps the gaits as they were, each with a value that
+acts: at their default they must cost the gaits that leave them there no instruction."""
+
+
+@pytest.mark.parametrize("tunable", sorted(NEUTRAL_TUNABLES))
+def test_a_tunable_left_at_its_neutral_default_costs_nothing(tunable: str) -> None:
+    gravity = dog_world().model.opt.gravity
+    walk = fold(lower(compiled("walk"), gravity))
+    acting = fold(lower(compiled("walk", **{tunable: NEUTRAL_TUNABLES[tunable]}), gravity))
+    assert len(walk.code) < len(acting.code), f"{tunable} at its default still costs instructions"

@@ -10,7 +10,7 @@ by 0. `fold(program)` runs four passes over the program:
    decide its value becomes a constant (`x * 0`, `0 / x`, `0 and c`, any exact operation of
    constants only); one that just passes an operand through is replaced by that operand in
    every later instruction (`x * 1`, `x + 0`, `x - 0`, `x / 1`, `mix(x, y, 0)`, a `select`
-   on a constant condition). Constants found this way enable more of them downstream.
+   on a constant condition or between two equal values). Constants found this way enable more of them downstream.
 2. **Dead springs**: a spring whose stiffness and damping are both constant 0 adds nothing.
 3. **Dead code** (`_live`): an instruction whose result no kept instruction reads is
    dropped, and a state-machine block left empty loses its jump; the registers still read
@@ -194,6 +194,16 @@ class _Folder:
                 self._pass_through(index, row, B)
             elif (condition == 0.0).all():
                 self._pass_through(index, row, C)
+        elif op == SELECT and self._same_value(int(row[B]), int(row[C])):
+            self._pass_through(index, row, B)
+
+    def _same_value(self, first: int, second: int) -> bool:
+        """Whether two registers always hold the same bits: one register, or two constants
+        equal bit for bit (so a `select` between them does not depend on its condition)."""
+        if first == second:
+            return True
+        x, y = self.constant(first), self.constant(second)
+        return x is not None and y is not None and x.shape == y.shape and x.tobytes() == y.tobytes()
 
     def _make_constant(self, index: int, dst: int, value: np.ndarray) -> None:
         self.constants[dst] = np.ascontiguousarray(value, dtype=float)
