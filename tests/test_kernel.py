@@ -284,3 +284,21 @@ def test_height_sensors_measure_the_ground_below_as_a_ray_cast_does(tmp_path: Pa
         assert {prop["name"] for prop in PROPS} <= hit_bodies, f"the sweep passes over every prop: hit {hit_bodies}"
     elif len(terrain) > 1:
         assert len(hit & set(terrain)) > 1, "the sweep passes over the terrain's features, not the floor alone"
+
+
+def test_a_flat_floor_is_read_without_a_ray_and_exactly_as_a_ray_reads_it() -> None:
+    """On a floor of horizontal planes through z = 0 (`kernel.flat_ground`) the kernel answers a
+    `height` sensor with the point's own z instead of casting a ray: MuJoCo's ray gives that
+    very number, bit for bit, above the floor, below it and past a finite plane's edge."""
+    from quadpipe.controllers.runtime.kernel import flat_ground
+
+    built = built_animal("dog")
+    hp = built.animal.pelvis_height
+    flat = build_scene(load_scene("flat"), built).spec.compile()
+    assert flat_ground(flat)
+    assert not any(flat_ground(build_scene(load_scene(s), built).spec.compile()) for s in ("hill", "stairs", "throws"))
+    data = mujoco.MjData(flat)
+    mujoco.mj_forward(flat, data)
+    for x, y, z in ((0.3, -0.2, 0.7), (1e3, 2e3, 0.01), (0.0, 0.0, -0.05), (5.0, 5.0, 0.0), (-7.1, 0.4, 3.3)):
+        point = np.array([x, y, z]) * hp
+        assert ray_down(flat, data, point)[0] == point[2]

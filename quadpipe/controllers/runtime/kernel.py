@@ -31,6 +31,7 @@ One call of `run` does, in order:
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
@@ -62,6 +63,26 @@ WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
 
 DOWN = -np.array([0.0, 0.0, 1.0])
 """Direction of a ground ray."""
+
+PLANE_GEOM = 0
+"""`mujoco.mjtGeom.mjGEOM_PLANE`."""
+
+
+def flat_ground(model: Any) -> bool:
+    """Whether every geom a ground ray may hit (`WORLD_GEOM_GROUPS`) is a plane of the world
+    body, lying horizontal through z = 0 (the `flat` scene's floor): then MuJoCo's ray from a
+    point straight down finds exactly the point's z (it computes `-z / -1`), or misses a point
+    below the floor or beyond a finite plane, where `_ground_height` answers z as well."""
+    rayed = [g for g in range(model.ngeom) if 0 <= model.geom_group[g] < len(WORLD_GEOM_GROUPS)]
+    return all(
+        model.geom_type[g] == PLANE_GEOM
+        and model.geom_bodyid[g] == 0
+        and model.geom_pos[g, 2] == 0.0
+        and tuple(model.geom_quat[g]) == (1.0, 0.0, 0.0, 0.0)
+        for g in rayed
+        if WORLD_GEOM_GROUPS[model.geom_group[g]]
+    )
+
 
 NO_FAULT = -1
 """What `run` returns when every force and spring value was finite; else it returns the first
@@ -98,7 +119,8 @@ MUJOCO_ARRAYS = (
 """The float64 arrays of MuJoCo's data (and the model's `dof_damping`), rows of the address
 table after `REAL_ARRAYS`; then two rows hold MuJoCo's contacts (`CONTACT_GEOMS`,
 `CONTACT_FRAMES`: see `contact_row`), and two the addresses of the model and the data
-themselves (`MODEL`, `DATA`, for `mj_ray`)."""
+themselves (`MODEL`, `DATA`, for `mj_ray`; the model's row also says, in its second field,
+whether the ground is flat: `flat_ground`)."""
 (XPOS, XMAT, XIPOS, CVEL, SUBTREE_COM, QPOS, QFRC, XFRC, DOF_DAMPING, CONTACT_GEOMS, CONTACT_FRAMES, MODEL, DATA) = (
     range(REGISTERS + len(REAL_ARRAYS), REGISTERS + len(REAL_ARRAYS) + len(MUJOCO_ARRAYS) + 4)
 )  # fmt: skip
@@ -272,10 +294,14 @@ def _point(xpos: np.ndarray, xmat: np.ndarray, body: int, offset: np.ndarray) ->
 
 
 @numba.njit(cache=True)
-def _ground_height(model: int, data: int, point: np.ndarray) -> float:
+def _ground_height(model: int, data: int, point: np.ndarray, flat: bool) -> float:
     """Height of `point` (3,), contiguous, above the world geom straight below it (terrain or
     prop, static or not; no animal's bone); its z when there is none. `model` and `data` are
-    MuJoCo's, by address."""
+    MuJoCo's, by address. `flat`: the only geoms a ray may hit are horizontal planes through
+    z = 0 (`flat_ground`), where MuJoCo's ray finds the point's own z (or misses, and z is
+    the answer), so no ray is cast."""
+    if flat:
+        return point[2]
     distance: float = mj_ray(
         model, data, point.ctypes.data, DOWN.ctypes.data, WORLD_GEOM_GROUPS.ctypes.data, 1, -1, 0, 0
     )
@@ -369,7 +395,7 @@ def run(address: int, dt: float, last: int, finish: bool, time: float, ncon: int
     xpos, xmat, xipos = reals2(table, XPOS), reals2(table, XMAT), reals2(table, XIPOS)
     cvel, subtree_com, qpos = reals2(table, CVEL), reals2(table, SUBTREE_COM), reals1(table, QPOS)
     qfrc, xfrc, dof_damping = reals1(table, QFRC), reals2(table, XFRC), reals1(table, DOF_DAMPING)
-    model, data = table[MODEL, 0], table[DATA, 0]
+    model, data, flat = table[MODEL, 0], table[DATA, 0], table[MODEL, 1] != 0
     contact_geoms, contact_frames = int32s2(table, CONTACT_GEOMS), reals2(table, CONTACT_FRAMES)
     _contacts(ncon, contact_geoms, contact_frames, leg_of_geom, animal_of_geom, contact, normals)
     _headings(xpos, xmat, point_body, point_offset, heading_points[0], heading_points[1], heading)
@@ -485,7 +511,7 @@ def run(address: int, dt: float, last: int, finish: bool, time: float, ncon: int
                     reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = 0.0, 0.0, 1.0
         elif op == ops.HEIGHT:
             for i in range(n):
-                reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = _ground_height(model, data, reg[a, i])
+                reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = _ground_height(model, data, reg[a, i], flat)
         elif op == ops.MASK:
             for i in range(n):
                 reg[dst, i, 0] = reg[dst, i, 1] = reg[dst, i, 2] = 1.0 if state[a, i] == b else 0.0

@@ -45,6 +45,7 @@ from quadpipe.controllers.runtime.kernel import (
     NO_FAULT,
     REAL_ARRAYS,
     TABLE_ROWS,
+    flat_ground,
     program_array,
     run,
 )
@@ -339,7 +340,7 @@ class ControllerRuntime:
             self._own_rows
             + [address_row(array, np.float64) for array in mujoco_arrays]
             + [contact_row(view) for view in self._contacts]
-            + [(self.model._address, 0, 0, 0), (data._address, 0, 0, 0)]
+            + [(self.model._address, int(flat_ground(self.model)), 0, 0), (data._address, 0, 0, 0)]
         )
         assert len(self._table) == TABLE_ROWS, "the runtime's table rows are the kernel's"
         self._table_address = self._table.ctypes.data
