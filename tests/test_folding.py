@@ -111,14 +111,20 @@ NEUTRAL_TUNABLES = {
     "hind_trailing_straight": "0.5",
     "contact_share": "0.5",
     "hind_give": "5 deg",
+    "front_toe_roll": "10 deg",
+    "hind_toe_roll": "10 deg",
 }
 """`locomotion` tunables whose default keeps the gaits as they were, each with a value that
-acts: at their default they must cost the gaits that leave them there no instruction."""
+acts: at their default (the base's own) they must cost the gaits that leave them there no
+instruction."""
+
+STRETCHED_REACH = "1.1"
+"""`reach` as the walk sets it: at the base's 1 a trailing leg's straightening changes nothing."""
 
 
 @pytest.mark.parametrize("tunable", sorted(NEUTRAL_TUNABLES))
 def test_a_tunable_left_at_its_neutral_default_costs_nothing(tunable: str) -> None:
     gravity = dog_world().model.opt.gravity
-    walk = fold(lower(compiled("walk"), gravity))
-    acting = fold(lower(compiled("walk", **{tunable: NEUTRAL_TUNABLES[tunable]}), gravity))
-    assert len(walk.code) < len(acting.code), f"{tunable} at its default still costs instructions"
+    base = fold(lower(compiled("locomotion", reach=STRETCHED_REACH), gravity))
+    acting = fold(lower(compiled("locomotion", reach=STRETCHED_REACH, **{tunable: NEUTRAL_TUNABLES[tunable]}), gravity))
+    assert len(base.code) < len(acting.code), f"{tunable} at its default still costs instructions"
