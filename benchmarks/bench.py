@@ -18,6 +18,7 @@ a JSON file (default `out/bench.json`) with the machine's description. See bench
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import math
 import os
@@ -1002,13 +1003,21 @@ def cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
+def measured_tree() -> Path:
+    """The checkout whose `quadpipe` these figures time: the first on the path, which is
+    another tree's when this script runs with `PYTHONPATH` set to it (comparing two commits)."""
+    spec = importlib.util.find_spec("quadpipe")
+    return Path(spec.origin).resolve().parent.parent if spec is not None and spec.origin else REPO
+
+
 def git_state() -> dict[str, Any]:
-    """The checked-out commit and whether the tree has changes (read-only git calls)."""
+    """The measured tree's commit and whether it has changes (read-only git calls)."""
     if shutil.which("git") is None:
         return {"git_commit": None, "git_dirty": None}
     env = dict(os.environ, GIT_OPTIONAL_LOCKS="0")
-    head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True, env=env)
-    status = subprocess.run(["git", "status", "--porcelain"], cwd=REPO, capture_output=True, text=True, env=env)
+    tree = measured_tree()
+    head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=tree, capture_output=True, text=True, env=env)
+    status = subprocess.run(["git", "status", "--porcelain"], cwd=tree, capture_output=True, text=True, env=env)
     ok = head.returncode == 0 and status.returncode == 0
     return {"git_commit": head.stdout.strip() if ok else None, "git_dirty": bool(status.stdout.strip()) if ok else None}
 

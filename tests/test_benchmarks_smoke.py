@@ -162,3 +162,14 @@ def test_pool_keeps_every_runs_samples_and_their_median(bench: ModuleType):
     assert figure["samples"] == [100.0, 300.0] and figure["value"] == 200.0
     assert [run["git_commit"] for run in pooled["pooled_from"]] == ["abc", "abc"]
     assert first["sections"]["controllers"]["rows"][0]["figures"]["with"]["samples"] == [100.0], "the runs stay as read"
+
+
+def test_the_report_names_the_tree_whose_code_it_timed(bench: ModuleType, tmp_path: Path, monkeypatch):
+    """A run with another checkout's `quadpipe` first on the path (comparing two commits with
+    one bench.py) records that checkout, not the script's."""
+    import importlib.machinery
+
+    other = tmp_path / "quadpipe" / "__init__.py"
+    spec = importlib.machinery.ModuleSpec("quadpipe", None, origin=str(other))
+    monkeypatch.setattr(bench.importlib.util, "find_spec", lambda name: spec if name == "quadpipe" else None)
+    assert bench.measured_tree() == tmp_path.resolve()
