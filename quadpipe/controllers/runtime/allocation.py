@@ -32,10 +32,7 @@ import numpy as np
 
 from quadpipe.controllers.runtime.folding import read_fields, table_blocks, writes_register
 from quadpipe.controllers.runtime.lowering import Program
-from quadpipe.controllers.runtime.ops import JUMP_IF_NONE, VEC, VECTOR_RESULT
-
-DST, B, E = 1, 3, 6
-"""Columns of an instruction (`ops.CODE_WIDTH`): op, dst, a, b, c, d, e."""
+from quadpipe.controllers.runtime.ops import DST, JUMP_IF_NONE, VEC, VECTOR_RESULT, B, E
 
 
 @dataclass

@@ -47,6 +47,7 @@ from quadpipe.controllers.runtime.ops import (
     CROSS,
     DIV,
     DOT,
+    DST,
     FORCE,
     GE,
     GT,
@@ -74,10 +75,11 @@ from quadpipe.controllers.runtime.ops import (
     VEC,
     VECTOR_RESULT,
     ZERO,
+    A,
+    B,
+    C,
+    E,
 )
-
-DST, A, B, C, E = 1, 2, 3, 4, 6
-"""Columns of an instruction (`ops.CODE_WIDTH`): op, dst, a, b, c, d, e."""
 
 STATEFUL_OPS = frozenset((JUMP_IF_NONE, ZERO, SMOOTH, ADVANCE, TRANSITION, FORCE, SPRING))
 """Ops kept whether or not their result is read: they change state, forces or control flow."""

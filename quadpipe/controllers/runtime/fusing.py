@@ -23,20 +23,23 @@ import numpy as np
 from quadpipe.controllers.runtime.ops import (
     ADD,
     ADD_MUL,
+    DST,
     JUMP_IF_NONE,
     MUL,
     MUL_MUL,
     MUL_SUB,
+    OP,
     SUB,
     SUB_MUL,
     VECTOR_A,
     VECTOR_B,
     VECTOR_C,
     VECTOR_RESULT,
+    A,
+    B,
+    C,
+    E,
 )
-
-OP, DST, A, B, C, E = 0, 1, 2, 3, 4, 6
-"""Columns of an instruction (`ops.CODE_WIDTH`): op, dst, a, b, c, d, e."""
 
 FUSED: dict[tuple[int, int], int] = {(SUB, MUL): SUB_MUL, (MUL, SUB): MUL_SUB, (MUL, MUL): MUL_MUL, (ADD, MUL): ADD_MUL}
 """(the reader's op, the op of its operand `b`) -> the fused op: `reader(a, inner(b, c))`."""

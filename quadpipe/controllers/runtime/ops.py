@@ -42,3 +42,6 @@ FORCE, SPRING = 90, 91
 
 CODE_WIDTH = 7
 """Columns of an instruction: op, dst, a, b, c, d, e."""
+
+OP, DST, A, B, C, D, E = range(CODE_WIDTH)
+"""The column of each field of an instruction (lowering, folding, fusing, allocation read them so)."""
