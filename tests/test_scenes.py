@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from quadpipe.controllers.language import compile_quantity
+from quadpipe.core import configs
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.quantities.fields import POINT
 from quadpipe.quantities.units import STANDARD_GRAVITY, Scale
@@ -354,6 +355,39 @@ def test_a_thrown_object_is_parked_without_collisions_until_its_time_then_thrown
     event(model, data)
     assert data.qpos[model.jnt_qposadr[body.jntadr[0]] + 2] == pytest.approx(parked[2])
     assert model.body_contype[body.id] == 0
+
+
+ANIMALS = configs.available("animals")
+SIDES = ("front", "back", "left", "right")
+
+
+def touches_the_animal_at_launch(model: mujoco.MjModel, data: mujoco.MjData, body: int) -> bool:
+    """Whether a thrown body, just launched, already touches one of the animal's bones (a body
+    that is neither itself nor fixed to the world)."""
+    mujoco.mj_forward(model, data)
+    for contact in data.contact[: data.ncon]:
+        pair = (int(model.geom_bodyid[contact.geom1]), int(model.geom_bodyid[contact.geom2]))
+        if body in pair and any(other != body and model.body_rootid[other] != 0 for other in pair):
+            return True
+    return False
+
+
+@pytest.mark.parametrize("animal", ANIMALS)
+def test_a_default_throw_starts_clear_of_the_animal_from_every_side(tmp_path: Path, animal: str) -> None:
+    """The slowest throw of the robustness series, from the front, behind and either side at
+    the thorax: it appears outside the animal (a throw from the front used to appear inside
+    the dog's head and stop there)."""
+    throws = "".join(
+        f"  - {{at: {THROW_AT * (k + 1)} s, shape: box, size: [0.2 HP, 0.2 HP, 0.2 HP], mass: 0.1 bm, "
+        f"from: {side}, speed: froude_speed(1.4), target: thorax.mid}}\n"
+        for k, side in enumerate(SIDES)
+    )
+    setup, model, data = build(write_scene(tmp_path, f"throws:\n{throws}"), animal)
+    for event, side in zip(setup.events(model), SIDES, strict=True):
+        data.qvel[:] = 0.0
+        data.time = event.plan.time
+        event(model, data)
+        assert not touches_the_animal_at_launch(model, data, model.body(event.plan.body).id), side
 
 
 def test_random_throws_are_seeded_and_within_their_ranges(tmp_path: Path) -> None:

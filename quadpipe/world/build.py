@@ -22,12 +22,9 @@ from quadpipe.world.loading import SceneSpec, entry_names, is_path
 from quadpipe.world.placement import Placement, attach_animals, world_spec
 from quadpipe.world.props import PropStart, add_props
 from quadpipe.world.terrain import add_terrain
-from quadpipe.world.throws import ThrowEvent, ThrowPlan, add_thrown, plan_throws
+from quadpipe.world.throws import ANCHOR_FRACTIONS, ThrowEvent, ThrowPlan, add_thrown, plan_throws
 from quadpipe.world.timeline import Timeline
 from quadpipe.world.values import Values
-
-ANCHOR_FRACTIONS = {"start": 0.0, "mid": 0.5, "end": 1.0}
-"""Where a body point lies along its bone (see `quadpipe.quantities.expressions.POINT_ANCHORS`)."""
 
 
 @dataclass
@@ -142,7 +139,8 @@ def build_scene(
     attach_animals(spec, placements, friction, scene.file.animals_collide)
     tau = sizing.constraint_time_constant(hp)
     velocities = add_props(spec, scene, values, tau)
-    throws = plan_throws(scene, values, [placement.name for placement in placements], -float(spec.option.gravity[2]))
+    skeletons = {placement.name: placement.built.animal.skeleton for placement in placements}
+    throws = plan_throws(scene, values, skeletons, -float(spec.option.gravity[2]))
     add_thrown(spec, throws, tau, hp)
     goals = {name: goal_text(scene, values, name) for name in scene.file.goals}
     lengths = {placement.name: body_length(placement.built.animal) for placement in placements}

@@ -263,7 +263,8 @@ class _ThrowBase(_Model):
         Field(
             None,
             description=described(
-                f"How far from the target the object appears. Default: {THROW_DISTANCE_HP:g} HP, or half the farthest the speed can carry if that is shorter.",
+                f"How far from the target the object appears. Default: {THROW_DISTANCE_HP:g} HP, or half the farthest the speed can carry if that is shorter, "
+                "but always clear of the animal's rest pose (a throw too slow to come from there arrives faster).",
                 LENGTH,
             ),
         ),

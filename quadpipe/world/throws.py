@@ -10,6 +10,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from quadpipe.anatomy.skeleton import Skeleton
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.yamlio import dotted
 from quadpipe.quantities.expressions import ZERO_NORM, resolve_point_name
@@ -29,7 +30,22 @@ FROM_DIRECTIONS: dict[str, tuple[float, float, float]] = {
 
 THROW_RANGE_FRACTION = 0.5
 """A default throw distance is at most this fraction of the farthest the speed can carry
-(half of it: a 15 degree throw when level)."""
+(half of it: a 15 degree throw when level), unless the animal is in the way (`CLEAR_HP`)."""
+
+CLEAR_RANGE_FRACTION = 0.9
+"""To start clear of the animal a default throw may come from up to this fraction of the
+farthest its speed can carry (a lob); a throw too slow even for that is made faster."""
+
+CLEAR_HP = 0.15
+"""A default throw starts at least this far (HP, about a body's half thickness) beyond the
+animal's farthest bone end toward where it comes from, plus the object's own radius: a throw
+from the front does not appear inside the head, nor one from behind inside the tail."""
+
+BONE_SAMPLES = 9
+"""Points per bone, ends included, at which the animal is looked for in a throw's way."""
+
+ANCHOR_FRACTIONS = {"start": 0.0, "mid": 0.5, "end": 1.0}
+"""Where a target point (`thorax.mid`) lies along its bone, from its start to its end."""
 
 PARK_DEPTH_HP = 50.0
 """Thrown objects wait this many pelvis heights under the floor, without collisions and held
@@ -87,13 +103,23 @@ def add_thrown(spec: mujoco.MjSpec, throws: list[ThrowPlan], tau: float, hp: flo
         add_shape(body, plan.body, plan.shape, plan.size, plan.mass, THROWN_RGBA, tau, hp, colliding=False)
 
 
-def plan_throws(scene: SceneSpec, values: Values, names: list[str], gravity: float) -> list[ThrowPlan]:
-    """Every throw of the scene, random series drawn, in declaration order."""
+def plan_throws(scene: SceneSpec, values: Values, skeletons: dict[str, Skeleton], gravity: float) -> list[ThrowPlan]:
+    """Every throw of the scene, random series drawn, in declaration order.
+
+    Args:
+        scene: the scene.
+        values: its resolved values.
+        skeletons: each animal's skeleton by instance name, in scene order (a default throw
+            starts clear of its target's rest pose).
+        gravity: m/s², downward.
+    """
     plans: list[ThrowPlan] = []
+    names = list(skeletons)
     for index, item in enumerate(scene.file.throws):
         base = ("throws", index)
         animal = _target_animal(scene, item.animal, names, base + ("animal",))
         size = mujoco_size(item.shape, values.items(base + ("size",), len(item.size)))
+        point = resolve_point_name(item.target)
         if isinstance(item, Throw):
             shots = [
                 (values[base + ("at",)], values[base + ("mass",)], values[base + ("speed",)], from_vector(item.from_))
@@ -103,8 +129,17 @@ def plan_throws(scene: SceneSpec, values: Values, names: list[str], gravity: flo
             shots = random_shots(item.random, values, base + ("random",))
             speed_path = base + ("random", "speed")
         for time, mass, speed, direction in shots:
-            distance, flight = _aim(
-                speed, direction, values.get(base + ("distance",)), gravity, values.hp, scene, speed_path
+            room = bounding_radius(item.shape, size) + CLEAR_HP * values.hp
+            clear = clear_distance(skeletons[animal], point, direction, room) + room
+            distance, flight, speed = _aim(
+                speed,
+                direction,
+                values.get(base + ("distance",)),
+                clear,
+                gravity,
+                values.hp,
+                scene,
+                speed_path,
             )
             launch = -distance * direction / flight + np.array([0.0, 0.0, gravity * flight / 2])
             plans.append(
@@ -112,7 +147,7 @@ def plan_throws(scene: SceneSpec, values: Values, names: list[str], gravity: flo
                     f"{THROWN_PREFIX}{len(plans)}",
                     float(time),
                     animal,
-                    resolve_point_name(item.target),
+                    point,
                     item.shape,
                     size,
                     float(mass),
@@ -176,20 +211,28 @@ def _aim(
     speed: float,
     direction: np.ndarray,
     distance: float | None,
+    clear: float,
     gravity: float,
     hp: float,
     scene: SceneSpec,
     path: tuple[Any, ...],
-) -> tuple[float, float]:
-    """The throw's distance and flight time; it starts as fast as it arrives when level.
+) -> tuple[float, float, float]:
+    """The throw's distance, flight time and arrival speed; it starts as fast as it arrives
+    when level.
+
+    A default distance is `THROW_DISTANCE_HP`, or half the farthest the speed carries if that
+    is shorter, but at least `clear` (metres: clear of the animal). A throw too slow to come
+    from there (`CLEAR_RANGE_FRACTION` of its reach) comes as slowly as it can: it arrives
+    faster than asked.
 
     Raises:
-        QuadpipeError: the speed cannot carry the object that far from that direction.
+        QuadpipeError: the speed cannot carry the object `distance` from that direction.
     """
     lift = 1.0 + direction[2]
     reach = speed**2 / (gravity * lift) if lift > 0 else math.inf
     if distance is None:
-        distance = min(THROW_DISTANCE_HP * hp, THROW_RANGE_FRACTION * reach)
+        distance = max(min(THROW_DISTANCE_HP * hp, THROW_RANGE_FRACTION * reach), clear)
+        speed = max(speed, math.sqrt(gravity * lift * distance / CLEAR_RANGE_FRACTION))
     flight = flight_time(speed, distance, direction[2], gravity)
     if flight is None:
         raise QuadpipeError.single(
@@ -198,7 +241,29 @@ def _aim(
             where=scene.locate(path),
             hint="throw faster, or from closer (`distance`)",
         )
-    return float(distance), flight
+    return float(distance), flight, speed
+
+
+def clear_distance(skeleton: Skeleton, point: str, direction: np.ndarray, corridor: float) -> float:
+    """How far the animal's rest pose reaches from its target `point` (`thorax.mid`) toward
+    `direction` (its heading frame, x forward), metres: the farthest point of its bones that
+    way within `corridor` metres of the line the object comes along."""
+    role, anchor = point.split(".")
+    bone = skeleton[role]
+    target = bone.start + ANCHOR_FRACTIONS[anchor] * (bone.end - bone.start)
+    along = np.linspace(0.0, 1.0, BONE_SAMPLES)[:, None]
+    points = np.concatenate([bone.start + along * (bone.end - bone.start) for bone in skeleton.bones.values()])
+    offsets = points - target
+    ahead = offsets @ direction
+    aside = np.linalg.norm(offsets - ahead[:, None] * direction, axis=1)
+    return max(0.0, float(ahead[aside < corridor].max(initial=0.0)))
+
+
+def bounding_radius(shape: str, size: tuple[float, ...]) -> float:
+    """The radius of the smallest sphere around an object of MuJoCo geom `size`, metres."""
+    if shape == "box":
+        return float(np.linalg.norm(size))
+    return float(sum(size))
 
 
 def flight_time(speed: float, distance: float, up: float, gravity: float) -> float | None:
