@@ -769,6 +769,30 @@ def test_no_tail_touches_the_ground(animal, gait):
     assert carriage.tail_ground_fraction in (None, 0.0), carriage
 
 
+TAIL_CARRIERS = ("dog", "cat", "lion")
+"""Species whose tail is carried up or out in motion (the issue; their configs' `tail_lift_deg`)."""
+
+MIN_TAIL_LINE_DEG = -20.0
+"""The line from a carried tail's root to its tip is at most this far below the horizontal
+(out behind, or up; their rest shapes hang at -43 to -60 deg)."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("animal", "gait"), [(a, g) for g in POSTURE_GAITS for a in TAIL_CARRIERS])
+def test_the_dog_cat_and_lion_carry_their_tails_out_or_up(animal, gait):
+    carriage = measured_gait(animal, gait).posture.head_tail
+    assert carriage.tail_chord_deg >= MIN_TAIL_LINE_DEG, carriage
+
+
+def test_the_species_tail_lift_reaches_the_gaits():
+    """The tail's lift (configs/animals: `tail_lift_deg`) is offered to every gait controller;
+    a horse's tail keeps its hanging rest shape."""
+    from tests.test_gait_repertoire import compiled_value
+
+    assert compiled_value("dog", "trot", "tail_lift") == pytest.approx(math.radians(load_animal("dog").tail_lift_deg))
+    assert load_animal("dog").tail_lift_deg > 0 and load_animal("horse").tail_lift_deg == 0
+
+
 # --------------------------------------------------------------------------- each species' swing fold (#13)
 
 ELEPHANT_SWING_FOLD_DEG = (15.0, 50.0)

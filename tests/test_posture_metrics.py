@@ -207,6 +207,7 @@ def test_the_rest_pose_measures_zero_everywhere():
     assert head.tail_ground_fraction == 0.0
     assert head.tail_elevation_deg == pytest.approx(head.tail_elevation_rest_deg)
     assert head.tail_elevation_rest_deg == pytest.approx(math.degrees(math.atan2(-0.052, 0.295)))
+    assert head.tail_chord_deg == pytest.approx(head.tail_elevation_rest_deg)  # a straight tail's line is its base's
 
 
 # --------------------------------------------------------------------------- joints
@@ -440,6 +441,7 @@ def test_a_tail_lowered_into_the_floor_is_counted():
     assert tail.tail_ground_fraction == pytest.approx(half.mean())
     rest = tail.tail_elevation_rest_deg
     assert tail.tail_elevation_deg == pytest.approx(half.mean() * (rest - lowered) + (1 - half.mean()) * rest)
+    assert tail.tail_chord_deg == pytest.approx(tail.tail_elevation_deg)  # the whole straight tail turned with its base
 
 
 @pytest.mark.parametrize(("clearance", "counted"), [(0.5 * TAIL_TOUCH_HP, True), (2.0 * TAIL_TOUCH_HP, False)])

@@ -332,7 +332,16 @@ def _head_tail(clip: Clip, track: AnimalTrack, window: slice) -> HeadTailPosture
         tail_ground_fraction=None if touching is None else float(touching.mean()),
         tail_elevation_deg=float(elevation(bone_direction(track, "tail0", window)).mean()),
         tail_elevation_rest_deg=float(elevation(rest_direction(track, "tail0"))[0]),
+        tail_chord_deg=float(elevation(_tail_chord(track, window)).mean()),
     )
+
+
+def _tail_chord(track: AnimalTrack, window: slice) -> np.ndarray:
+    """(F, 3) the line from the tail's root (its first joint) to its tip (its last bone's end)."""
+    root = track.positions[window, track.roles.index(roles.TAIL[0])]
+    last = roles.TAIL[-1]
+    tip = track.positions[window, track.roles.index(last)] + bone_direction(track, last, window)
+    return tip - root
 
 
 def _mean_elevation_change(vectors: np.ndarray, rest: np.ndarray) -> float:

@@ -138,6 +138,8 @@ class HeadTailPosture:
         tail_elevation_deg: mean elevation of the tail base (`tail0`) above the horizontal
             (negative: pointing down).
         tail_elevation_rest_deg: the same in the standing pose.
+        tail_chord_deg: mean elevation of the line from the tail's root to its tip above the
+            horizontal (0: carried out behind; -90: hanging).
     """
 
     head_dz_hp: float
@@ -147,6 +149,7 @@ class HeadTailPosture:
     tail_ground_fraction: float | None
     tail_elevation_deg: float
     tail_elevation_rest_deg: float
+    tail_chord_deg: float
 
 
 @dataclass(frozen=True)

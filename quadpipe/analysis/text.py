@@ -77,7 +77,7 @@ def format_posture(p: AnimalPosture) -> str:
         f"    head: height {h.head_dz_hp:+.3f} HP (max {h.head_dz_max_abs_hp:.3f}), pitch {h.head_pitch_deg:+.1f} deg,"
         f" neck {h.neck_angle_deg:+.1f} deg",
         f"    tail: on the ground {tail} of frames, base {h.tail_elevation_deg:+.1f} deg"
-        f" (standing {h.tail_elevation_rest_deg:+.1f})",
+        f" (standing {h.tail_elevation_rest_deg:+.1f}), root to tip {h.tail_chord_deg:+.1f} deg",
         "    foot  stance flexion max/mean/min (deg; + closes)                  slip  drag  sink dyn/rest  clear (%HP)",
     ]
     lines.extend(_format_leg(p.legs[leg]) for leg in HILDEBRAND_ORDER)

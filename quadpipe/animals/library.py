@@ -14,8 +14,9 @@ carries the thesis's pelvis height and a real body mass:
       gallop: {froude: [2, 5], sequence: rotary}
     walk_fold: 1                # share of the runners' swing fold at a walk (the elephant's small), cited
     upright: 1                  # carried on straight legs by auto_gait and direct (the rat's 0: crouched)
+    tail_lift_deg: 20           # each tail joint carried this far above its rest angle in motion, cited
 
-The repertoire, the swing fold and the upright carriage reach the controllers as parameters they may declare (see
+The repertoire, the swing fold, the upright carriage and the tail's lift reach the controllers as parameters they may declare (see
 `repertoire_parameters`), and a gait controller the species does not use runs with a warning
 (`gait_warning`).
 """
@@ -53,6 +54,12 @@ DEFAULT_WALK_FOLD = 1.0
 DEFAULT_UPRIGHT = 1.0
 """The walk's swing fold, as a share of the runners' (`locomotion`'s `fold_angle`), of an animal
 whose config gives none or made from bare files: the dog's, all of it."""
+
+DEFAULT_TAIL_LIFT_DEG = 0.0
+"""An animal whose config gives no tail lift carries its tail in its rest shape."""
+
+MAX_TAIL_LIFT_DEG = 40.0
+"""The most a tail joint can be lifted: the thesis's tail limit (configs/limits/thesis.tsv)."""
 
 HP_MISMATCH_WARNING = 0.05
 """Warn when the skeleton's pelvis height differs from the config's by more than 5 %."""
@@ -123,6 +130,13 @@ class AnimalConfig(BaseModel):
         description="How far `auto_gait` and `direct` carry the species on straight, weight-bearing legs at a walk "
         "and a trot (1), rather than on the crouched legs of a small mammal (0: Biewener 1989, Science 245:45).",
     )
+    tail_lift_deg: float = Field(
+        DEFAULT_TAIL_LIFT_DEG,
+        ge=0.0,
+        le=MAX_TAIL_LIFT_DEG,
+        description="How far the gait controllers carry each tail joint above its rest angle, degrees: a dog, a "
+        "cat or a lion carries its tail out or up in motion, a horse or a cow lets it hang (0, its rest shape).",
+    )
 
 
 @dataclass(frozen=True)
@@ -143,6 +157,8 @@ class Animal:
         walk_fold_at: where the walk's fold was written (its config's `walk_fold:`).
         upright: how far `auto_gait` and `direct` carry it on straight, weight-bearing legs.
         upright_at: where that was written (its config's `upright:`).
+        tail_lift_deg: how far each tail joint is carried above its rest angle in motion, degrees.
+        tail_lift_at: where that was written (its config's `tail_lift_deg:`).
     """
 
     name: str
@@ -158,6 +174,8 @@ class Animal:
     walk_fold_at: Location | None = None
     upright: float = DEFAULT_UPRIGHT
     upright_at: Location | None = None
+    tail_lift_deg: float = DEFAULT_TAIL_LIFT_DEG
+    tail_lift_at: Location | None = None
 
 
 def load_animal(name_or_path: str | Path | AnimalSource) -> Animal:
@@ -214,6 +232,8 @@ def load_animal(name_or_path: str | Path | AnimalSource) -> Animal:
         doc.locate(("walk_fold",)),
         config.upright,
         doc.locate(("upright",)),
+        config.tail_lift_deg,
+        doc.locate(("tail_lift_deg",)),
     )
 
 
@@ -374,6 +394,9 @@ WALK_FOLD_PARAMETER = "walk_fold"
 UPRIGHT_PARAMETER = "upright"
 """The controller parameter the species' upright carriage is offered as (configs/controllers/auto_gait.yaml)."""
 
+TAIL_LIFT_PARAMETER = "tail_lift"
+"""The controller parameter the species' tail lift is offered as (configs/controllers/locomotion.yaml)."""
+
 
 def repertoire_parameters(animal: Animal) -> dict[str, str]:
     """The species' repertoire as controller parameter values (YAML text), offered to a
@@ -383,7 +406,8 @@ def repertoire_parameters(animal: Animal) -> dict[str, str]:
     `<gait>_froude_min` and `<gait>_froude_max`; `top_froude`, the top of the fastest;
     `gallop_rotary`, 1 for a rotary gallop (0 for a transverse one or none); `walk_fold`,
     how far its legs fold in mid-swing at a walk (a share of the runners' fold); and
-    `upright`, how far `auto_gait` carries it on straight, weight-bearing legs.
+    `upright`, how far `auto_gait` carries it on straight, weight-bearing legs; `tail_lift`,
+    how far each tail joint is carried above its rest angle.
     """
     values = {f"uses_{name}": "1" if name in animal.gaits else "0" for name in GAIT_NAMES}
     for name, use in animal.gaits.items():
@@ -393,12 +417,17 @@ def repertoire_parameters(animal: Animal) -> dict[str, str]:
     values["gallop_rotary"] = "1" if gallop is not None and gallop.sequence == "rotary" else "0"
     values[WALK_FOLD_PARAMETER] = f"{animal.walk_fold:g}"
     values[UPRIGHT_PARAMETER] = f"{animal.upright:g}"
+    values[TAIL_LIFT_PARAMETER] = f"{animal.tail_lift_deg:g} deg"
     return values
 
 
 def repertoire_place(animal: Animal, name: str) -> Location | None:
     """Where the animal's config wrote the value of repertoire parameter `name`, for messages."""
-    places = {WALK_FOLD_PARAMETER: animal.walk_fold_at, UPRIGHT_PARAMETER: animal.upright_at}
+    places = {
+        WALK_FOLD_PARAMETER: animal.walk_fold_at,
+        UPRIGHT_PARAMETER: animal.upright_at,
+        TAIL_LIFT_PARAMETER: animal.tail_lift_at,
+    }
     return places.get(name, animal.gaits_at)
 
 
