@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from quadpipe.anatomy import roles
+from tests.conftest import FIXTURES
 from tests.test_gaits import Measured, measure, measured_gait, posture_cases
 
 MAX_SLIP_HP = 0.03
@@ -200,3 +201,27 @@ def test_a_foot_that_rolls_over_its_toe_stays_down_longer_and_still_lifts_cleanl
     assert pressed is not None and drag is not None, "no complete stance measured"
     assert mean_duty(rolled) >= mean_duty(released) + LONGER_STANCE, (mean_duty(released), mean_duty(rolled))
     assert drag <= CLEANER_TRAILING * pressed, (pressed, drag)
+
+
+SOFT_LANDING_TROT = str(FIXTURES / "runtime" / "trot_soft_landing.yaml")
+"""`trot` with locomotion's `landing_speed` 0.3 leg lengths per natural time,
+`swing_retraction` 1 and `landing_share` 0.25, the ground under each leg's top measured
+(trotsoft; docs/gaits.md, "Soft landings at the trot")."""
+
+SLOWER_TOUCHDOWN = 0.7
+"""The soft landing brings the horse's trotting feet down at most this fraction as fast
+(measured 1.85 -> 0.98 natural velocities, fastest touchdown)."""
+
+SHALLOWER_LANDING = 0.8
+"""... and at most this fraction as deep (measured 4.5 -> 3.0 % HP, deepest landing)."""
+
+
+@pytest.mark.slow
+def test_a_swinging_foot_brought_down_along_its_approach_lands_slower_and_shallower():
+    shipped = measured_gait("horse", "trot").posture
+    soft = measure("horse", SOFT_LANDING_TROT).posture
+    speeds = (shipped.worst("touchdown_speed"), soft.worst("touchdown_speed"))
+    depths = (shipped.worst("penetration_dynamic_hp"), soft.worst("penetration_dynamic_hp"))
+    assert None not in speeds and None not in depths, "no landing measured"
+    assert speeds[1] <= SLOWER_TOUCHDOWN * speeds[0], speeds
+    assert depths[1] <= SHALLOWER_LANDING * depths[0], depths

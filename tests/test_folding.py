@@ -113,6 +113,8 @@ NEUTRAL_TUNABLES = {
     "hind_give": "5 deg",
     "front_toe_roll": "10 deg",
     "hind_toe_roll": "10 deg",
+    "landing_speed": "0.3 / natural_time",
+    "swing_retraction": "1",
 }
 """`locomotion` tunables whose default keeps the gaits as they were, each with a value that
 acts: at their default (the base's own) they must cost the gaits that leave them there no
