@@ -113,7 +113,8 @@ NEUTRAL_TUNABLES = {
     "hind_give": "5 deg",
     "front_toe_roll": "10 deg",
     "hind_toe_roll": "10 deg",
-    "loading_flex": "10 deg",
+    "front_loading_flex": "10 deg",
+    "hind_loading_flex": "10 deg",
     "trailing_floor": "0.5",
 }
 """`locomotion` tunables whose default keeps the gaits as they were, each with a value that
