@@ -744,7 +744,12 @@ def test_the_trot_trial_keeps_the_dogs_feet_on_the_ground():
     assert max(phase_errors(trial.gait, GAIT_PHASES["trot"]).values()) <= PHASE_TOLERANCE, describe(trial.gait)
 
 
-WALK_LOADING = {"front_loading_flex": "10 deg", "hind_loading_flex": "10 deg", "trailing_floor": "1"}
+WALK_LOADING = {
+    "front_loading_flex": "10 deg",
+    "hind_loading_flex": "10 deg",
+    "front_trailing_floor": "1",
+    "hind_trailing_floor": "1",
+}
 """The walk's legs that give as they take the weight (walkfeet2; docs/gaits.md, "The walk's
 double support"): not shipped, as one angle does not suit every species' legs and the toes
 drag more with it."""
