@@ -115,6 +115,10 @@ NEUTRAL_TUNABLES = {
     "hind_toe_roll": "10 deg",
     "landing_speed": "0.3 / natural_time",
     "swing_retraction": "1",
+    "front_loading_flex": "10 deg",
+    "hind_loading_flex": "10 deg",
+    "front_trailing_floor": "0.5",
+    "hind_trailing_floor": "0.5",
 }
 """`locomotion` tunables whose default keeps the gaits as they were, each with a value that
 acts: at their default (the base's own) they must cost the gaits that leave them there no

@@ -738,6 +738,36 @@ def test_the_trot_carries_its_weight_on_the_ground_not_on_struts(animal):
     assert max(phase_errors(trot.gait, GAIT_PHASES["trot"]).values()) <= PHASE_TOLERANCE, describe(trot.gait)
 
 
+WALK_LOADING = {
+    "front_loading_flex": "10 deg",
+    "hind_loading_flex": "10 deg",
+    "front_trailing_floor": "1",
+    "hind_trailing_floor": "1",
+}
+"""The walk's legs that give as they take the weight (walkfeet2; docs/gaits.md, "The walk's
+double support"): not shipped, as one angle does not suit every species' legs and the toes
+drag more with it."""
+
+
+@pytest.mark.slow
+def test_a_leg_that_gives_as_it_takes_the_weight_keeps_the_dogs_feet_down_as_long_as_the_walk_asks():
+    """Straight legs vault the trunk: the dog's feet are down 0.56 of its walk for 0.7 asked.
+    Legs that flex in the double support and a landing leg that does not lift the hip off its
+    trailing partner keep every foot down within the tolerance, the stance legs in their shape
+    and the footfalls on their phases."""
+    trial = measure("dog", "walk", **WALK_LOADING)
+    duties = {leg: trial.gait.legs[leg].duty_factor for leg in roles.LEGS}
+    assert all(abs(duty - 0.7) <= DUTY_TOLERANCE for duty in duties.values()), duties
+    for joint in ("elbow", "knee", "hock"):
+        closing = max(
+            trial.posture.legs[leg].joints[joint].stance_max_deg or 0.0
+            for leg in roles.LEGS
+            if joint in trial.posture.legs[leg].joints
+        )
+        assert closing <= MAX_STANCE_CLOSING_DEG[joint], (joint, closing)
+    assert max(phase_errors(trial.gait, GAIT_PHASES["walk"]).values()) <= PHASE_TOLERANCE, describe(trial.gait)
+
+
 # --------------------------------------------------------------------------- head and tail carriage (#13)
 
 MAX_HEAD_DROP_HP = 0.15
