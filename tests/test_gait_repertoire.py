@@ -115,6 +115,21 @@ def pair_scene(folder: Path, species: tuple[str, str]) -> Path:
     return path
 
 
+def test_species_that_carry_their_tails_differently_share_one_walk_with_a_warning(tmp_path):
+    """The dog lifts its tail, the horse does not: one walk runs them both, every tail in its
+    rest shape (the walk's own `tail_lift`), and the run warns once (`mixed-carriage`)."""
+    from quadpipe.sim.simulation import Simulation
+
+    sim = Simulation.build("dog", "walk", scene=str(pair_scene(tmp_path, ("dog", "horse"))))
+    compiled = sim.runtime.compiled
+    assert float(compiled.parameters["tail_lift"]({"t": np.array([0.0])})[0]) == 0.0
+    assert [issue.code for issue in sim.warnings] == ["mixed-carriage"]
+    assert sim.warnings[0].where is not None and sim.warnings[0].where.file.endswith("horse.yaml")
+    alone = Simulation.build("dog", "walk", scene=str(pair_scene(tmp_path, ("dog", "lion"))))
+    assert float(alone.runtime.compiled.parameters["tail_lift"]({"t": np.array([0.0])})[0]) > 0.0
+    assert not alone.warnings
+
+
 def test_species_that_gallop_differently_cannot_share_one_gallop(tmp_path):
     from quadpipe.sim.simulation import Simulation
 

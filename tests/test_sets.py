@@ -249,17 +249,7 @@ def test_an_animal_walks_across_the_bumpy_set_20_s_without_falling(animal: str) 
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "animal",
-    [
-        pytest.param(
-            "dog",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="the weight-bearing walk's feet bounce at landing (#13 item 3, tests/test_feet.py): "
-                "2 of the left fore foot's 31 touches last 1-2 frames sunk 1.5-4 % HP into the set",
-            ),
-        ),
-        "horse",
-    ],
+    ["dog", "horse"],
 )
 def test_the_clips_feet_touch_the_sets_surface_within_1_5_percent_hp(animal: str) -> None:
     track = walk(animal).clip.animals[0]

@@ -24,7 +24,7 @@ The repertoire, the swing fold, the upright carriage and the tail's lift reach t
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal, get_args
@@ -397,6 +397,11 @@ UPRIGHT_PARAMETER = "upright"
 TAIL_LIFT_PARAMETER = "tail_lift"
 """The controller parameter the species' tail lift is offered as (configs/controllers/locomotion.yaml)."""
 
+CARRIAGE_PARAMETERS = frozenset({TAIL_LIFT_PARAMETER})
+"""Species parameters that change only how an animal carries itself: where the species of one
+scene disagree, the controller keeps its own value (the tail in its rest shape) with a warning
+(`carriage_warning`), instead of refusing the scene as for the repertoire."""
+
 
 def repertoire_parameters(animal: Animal) -> dict[str, str]:
     """The species' repertoire as controller parameter values (YAML text), offered to a
@@ -429,6 +434,24 @@ def repertoire_place(animal: Animal, name: str) -> Location | None:
         TAIL_LIFT_PARAMETER: animal.tail_lift_at,
     }
     return places.get(name, animal.gaits_at)
+
+
+def carriage_warning(animals: Sequence[Animal]) -> Issue | None:
+    """A warning when the animals' species carry their tails differently (`tail_lift_deg`):
+    one controller runs them all, so their tails keep their rest shapes (None otherwise)."""
+    lifts = {animal.name: animal.tail_lift_deg for animal in animals}
+    if len(set(lifts.values())) < 2:
+        return None
+    odd = next(animal for animal in animals if animal.tail_lift_deg != animals[0].tail_lift_deg)
+    listed = ", ".join(f"{name} {lift:g} deg" for name, lift in lifts.items())
+    return Issue(
+        "mixed-carriage",
+        f"the animals' species carry their tails differently ({listed}); one controller runs them all, "
+        "so every tail keeps its rest shape",
+        odd.tail_lift_at or Location(odd.source),
+        f"set one lift for all of them (--set {TAIL_LIFT_PARAMETER}=VALUE), or run each species in its own scene",
+        severity="warning",
+    )
 
 
 def gait_warning(animal: Animal, controller: str) -> Issue | None:

@@ -152,6 +152,7 @@ GROUPS: tuple[CodeGroup, ...] = (
             "hp-mismatch": "(warning) the skeleton's pelvis height differs from the config's",
             "default-mass": "(note) the mass a skeleton file without --mass is given, by the mammal body-size rule",
             "gait-not-in-repertoire": "(warning) a gait controller run on an animal whose species does not use that gait",
+            "mixed-carriage": "(warning) one scene's species carry their tails differently: every tail keeps its rest shape",
             "mixed-repertoires": "the animals of one run offer different gait settings to their one controller",
         },
     ),

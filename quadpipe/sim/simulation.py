@@ -268,11 +268,14 @@ class Simulation:
 
     def _warn_of_gaits(self, controller: str) -> None:
         """Keep a warning, once per species, when `controller` is a gait the species does not
-        use (`gait_warning`): in `warnings` and in the clips' metadata."""
-        from quadpipe.animals.library import gait_warning
+        use (`gait_warning`), and once when their species carry their tails differently
+        (`carriage_warning`): in `warnings` and in the clips' metadata."""
+        from quadpipe.animals.library import TAIL_LIFT_PARAMETER, carriage_warning, gait_warning
+        from quadpipe.controllers.runtime.runtime import declared_parameters
 
-        for placement in self.placements:
-            issue = gait_warning(placement.built.animal, controller)
+        animals = [placement.built.animal for placement in self.placements]
+        carriage = carriage_warning(animals) if TAIL_LIFT_PARAMETER in declared_parameters(controller) else None
+        for issue in [*(gait_warning(animal, controller) for animal in animals), carriage]:
             if issue is not None and issue not in self.warnings:
                 self.warnings.append(issue)
         if self.warnings:
