@@ -51,7 +51,7 @@ from quadpipe.controllers.runtime.kernel import (
 )
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
 from quadpipe.controllers.runtime.variation import StrideClock, Variation
-from quadpipe.controllers.runtime.views import address_row, address_table, contact_row
+from quadpipe.controllers.runtime.views import address_row, address_table, contact_row, data_field
 from quadpipe.core import configs
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities.units import scale_for_animals
@@ -121,7 +121,11 @@ class ControllerRuntime:
         registers = np.zeros((self.program.registers, self.n, 3))
         for register, value in self.program.constants.items():
             registers[register] = value
-        arrays = {"registers": registers} | self._bind(self.program) | self._initial_state(self.program)
+        arrays = (
+            {"registers": registers, "timestep": np.array([self.dt])}
+            | self._bind(self.program)
+            | self._initial_state(self.program)
+        )
         self._arrays = (
             {"code": program_array(self.program.code)}
             | {name: np.ascontiguousarray(arrays[name], np.int64) for name in INTEGER_ARRAYS}
@@ -285,7 +289,11 @@ class ControllerRuntime:
         factor (`StrideClock.advance`); the step's own forces saw the unscaled advance, a
         difference of variation x dt / period: millionths of a cycle.
         """
-        if self._clock is None:
+        if self._clock is None and self._table_for is data:  # the common case, without `_run`'s Python
+            fault = run(self._table_address, self._length, True)
+            if fault != NO_FAULT and self.fault is None:
+                self.fault = self._describe_fault(fault)
+        elif self._clock is None:
             self._run(data, self._length, True)
         else:
             phase = self._arrays["phase"]
@@ -297,7 +305,7 @@ class ControllerRuntime:
     def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:
         """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
         table = self._table_address if self._table_for is data else self._address_table(data)
-        fault = run(table, self.dt, last, finish, data.time, data.ncon)
+        fault = run(table, last, finish)
         if fault != NO_FAULT and self.fault is None:
             self.fault = self._describe_fault(fault)
 
@@ -340,7 +348,10 @@ class ControllerRuntime:
             self._own_rows
             + [address_row(array, np.float64) for array in mujoco_arrays]
             + [contact_row(view) for view in self._contacts]
-            + [(self.model._address, int(flat_ground(self.model)), 0, 0), (data._address, 0, 0, 0)]
+            + [
+                (self.model._address, int(flat_ground(self.model)), 0, 0),
+                (data._address, data_field(data, "time", np.float64), data_field(data, "ncon", np.int32), 0),
+            ]
         )
         assert len(self._table) == TABLE_ROWS, "the runtime's table rows are the kernel's"
         self._table_address = self._table.ctypes.data

@@ -8,6 +8,7 @@ the arrays alive).
 
 from __future__ import annotations
 
+import ctypes
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -71,6 +72,57 @@ def reals2(table: np.ndarray, row: int) -> np.ndarray:
 def reals3(table: np.ndarray, row: int) -> np.ndarray:
     """The float64 array of address table row `row`, as (d0, d1, d2)."""
     return numba.carray(_pointer(table[row, 0], numba.float64), (table[row, 1], table[row, 2], table[row, 3]))
+
+
+@numba.njit(cache=True, inline="always")
+def real_at(address: int) -> float:
+    """The float64 at `address` (a scalar of MuJoCo's data: `data_field`)."""
+    return numba.carray(_pointer(address, numba.float64), 1)[0]
+
+
+@numba.njit(cache=True, inline="always")
+def int32_at(address: int) -> int:
+    """The int32 at `address` (a scalar of MuJoCo's data: `data_field`)."""
+    return numba.carray(_pointer(address, numba.int32), 1)[0]
+
+
+PROBES = {np.dtype(np.float64): (-1.2345678901234567e-300, 3.3e-300), np.dtype(np.int32): (-123456789, -987654321)}
+"""Two values per type that `data_field` writes into a field to find it (values MuJoCo never
+holds there: a negative count, a time of -1e-300 s)."""
+
+
+def data_field(data: Any, name: str, dtype: type) -> int:
+    """The address of the scalar field `name` (of `dtype`: float64 or int32) of MuJoCo's data
+    struct `data` (`mujoco.MjData`), for the kernel to read it itself.
+
+    The struct's layout changes between MuJoCo versions, so the field is found where writing
+    two probe values into it (`PROBES`, the field's value put back after) shows them, in the
+    part of the struct between its arrays `solver_fwdinv` and `energy` (MuJoCo's sizes, such
+    as `ncon`, and its `time`).
+
+    Raises:
+        ValueError: the field is not found there, or at more than one place.
+    """
+    start = data.solver_fwdinv.ctypes.data + data.solver_fwdinv.nbytes
+    stop = data.energy.ctypes.data
+    memory = np.ctypeslib.as_array((ctypes.c_char * (stop - start)).from_address(start)).view(np.uint8)
+    kind, kept = np.dtype(dtype), getattr(data, name)
+    found = None
+    try:
+        for probe in PROBES[kind]:
+            setattr(data, name, probe)
+            pattern = np.array(probe, kind).tobytes()
+            places = {
+                offset
+                for offset in range(-start % kind.itemsize, len(memory) - kind.itemsize + 1, kind.itemsize)
+                if memory[offset : offset + kind.itemsize].tobytes() == pattern
+            }
+            found = places if found is None else found & places
+    finally:
+        setattr(data, name, kept)
+    if found is None or len(found) != 1:
+        raise ValueError(f"MuJoCo's data field {name!r} is not where the kernel looks for it")
+    return start + found.pop()
 
 
 TABLE_WIDTH = 4
