@@ -16,8 +16,10 @@ from quadpipe.controllers.runtime.fusing import FUSED, fuse
 from quadpipe.controllers.runtime.lowering import lower
 from quadpipe.controllers.runtime.ops import (
     ADD,
+    ADD_MUL,
     JUMP_IF_NONE,
     MUL,
+    MUL_MUL,
     SUB,
     SUB_MUL,
     VECTOR_A,
@@ -57,6 +59,14 @@ def test_a_product_read_once_by_the_next_difference_is_fused() -> None:
 def test_a_scalar_product_read_by_a_vector_difference_is_fused_as_a_scalar() -> None:
     code = fused_rows([MUL, 5, 1, 2, 0, 0, 0], [SUB, 6, 3, 5, 0, 0, VECTOR_RESULT | VECTOR_A])
     np.testing.assert_array_equal(code[1], [SUB_MUL, 6, 3, 1, 2, 0, VECTOR_RESULT | VECTOR_A])
+
+
+def test_a_product_read_as_operand_a_of_a_sum_or_product_is_fused_with_the_operands_swapped() -> None:
+    product = [MUL, 5, 1, 2, 0, 0, VECTOR_AB]
+    sum_ = fused_rows(product, [ADD, 6, 5, 3, 0, 0, VECTOR_RESULT | VECTOR_A])
+    np.testing.assert_array_equal(sum_[1], [ADD_MUL, 6, 3, 1, 2, 0, VECTOR_RESULT | VECTOR_B | VECTOR_C])
+    scaled = fused_rows(product, [MUL, 6, 5, 3, 0, 0, VECTOR_AB])
+    np.testing.assert_array_equal(scaled[1], [MUL_MUL, 6, 3, 1, 2, 0, VECTOR_AB | VECTOR_C])
 
 
 def test_only_a_value_read_once_right_after_it_is_made_is_fused() -> None:

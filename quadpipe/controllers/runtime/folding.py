@@ -10,7 +10,9 @@ by 0. `fold(program)` runs four passes over the program:
    decide its value becomes a constant (`x * 0`, `0 / x`, `0 and c`, any exact operation of
    constants only); one that just passes an operand through is replaced by that operand in
    every later instruction (`x * 1`, `x + 0`, `x - 0`, `x / 1`, `mix(x, y, 0)`, a `select`
-   on a constant condition or between two equal values). Constants found this way enable more of them downstream.
+   on a constant condition or between two equal values), and a division by a constant power of
+   two becomes a product by its exact reciprocal (the same bits, and a product can be fused).
+   Constants found this way enable more of them downstream.
 2. **Dead springs**: a spring whose stiffness and damping are both constant 0 adds nothing.
 3. **Dead code** (`_live`): an instruction whose result no kept instruction reads is
    dropped, and a state-machine block left empty loses its jump; the registers still read
@@ -143,6 +145,7 @@ class _Folder:
         self.constants = dict(program.constants)
         self.alias: dict[int, int] = {}
         self.removed: set[int] = set()
+        self.next_register = program.registers
         self.state_registers = {int(row[DST]) for row in self.code if row[0] in WRITES_REGISTER and row[0] != ZERO}
 
     def constant(self, register: int) -> np.ndarray | None:
@@ -198,6 +201,31 @@ class _Folder:
                 self._pass_through(index, row, C)
         elif op == SELECT and self._same_value(int(row[B]), int(row[C])):
             self._pass_through(index, row, B)
+        elif op == DIV and (reciprocal := self._exact_reciprocal(row, flags)) is not None:
+            row[0], row[B] = MUL, self._new_constant(reciprocal)
+
+    def _exact_reciprocal(self, row: np.ndarray, flags: int) -> np.ndarray | None:
+        """1 / the divisor of a division, where the divisor is a constant power of two, whose
+        reciprocal is exact: then `x / d` and `x * (1 / d)` round the same real number, bit for
+        bit, for every x (and d is no 0, the kernel's guarded case)."""
+        if self.constant(int(row[B])) is None:
+            return None
+        divisor = self.operand(row, B, flags)
+        with np.errstate(all="ignore"):
+            reciprocal = 1.0 / divisor
+        exact = (
+            (np.abs(np.frexp(divisor)[0]) == 0.5)
+            & (np.abs(np.frexp(reciprocal)[0]) == 0.5)
+            & (reciprocal * divisor == 1.0)
+        )
+        return reciprocal if bool(exact.all()) else None
+
+    def _new_constant(self, value: np.ndarray) -> int:
+        """A register, numbered after the program's, that holds the constant `value`."""
+        register = self.next_register
+        self.next_register += 1
+        self.constants[register] = np.ascontiguousarray(value, dtype=float)
+        return register
 
     def _same_value(self, first: int, second: int) -> bool:
         """Whether two registers always hold the same bits: one register, or two constants

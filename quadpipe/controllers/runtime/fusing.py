@@ -10,6 +10,10 @@ same IEEE operations in the same order, so its result is bit-for-bit the pair's;
 instruction of the pair is then read by nothing and dropped with the dead code
 (`quadpipe.controllers.runtime.folding`).
 
+A reader that adds or multiplies reads its operands either way round (IEEE addition and
+multiplication are commutative, bit for bit): one that reads the produced value as its operand
+`a` has its operands swapped first (`x * y * z`, `x * y + z`: `z * (x * y)`, `z + x * y`).
+
 A pair is fused only when the two are adjacent (nothing can change the first one's operands in
 between) and the second is no jump target; the first's result must be read by the second alone
 (not by a later instruction, a sensor or the runtime), and be a vector exactly where the second
@@ -41,6 +45,10 @@ from quadpipe.controllers.runtime.ops import (
     E,
 )
 
+COMMUTATIVE = frozenset((ADD, MUL))
+"""Readers whose operands `a` and `b` may be swapped without changing a bit of the result
+(the fused op reads the other operand as its `a`)."""
+
 FUSED: dict[tuple[int, int], int] = {(SUB, MUL): SUB_MUL, (MUL, SUB): MUL_SUB, (MUL, MUL): MUL_MUL, (ADD, MUL): ADD_MUL}
 """(the reader's op, the op of its operand `b`) -> the fused op: `reader(a, inner(b, c))`."""
 
@@ -62,14 +70,24 @@ def fuse(code: np.ndarray, removed: set[int], read: dict[int, int], kept_registe
             continue
         op = FUSED.get((int(outer[OP]), int(inner[OP])))
         produced = int(inner[DST])
-        if op is None or int(outer[B]) != produced or read.get(produced) != 1:
+        if op is None or read.get(produced) != 1 or produced in kept_registers:
             continue
-        if produced in kept_registers or not _same_width(int(inner[E]), int(outer[E])):
+        swap = int(outer[OP]) in COMMUTATIVE and int(outer[A]) == produced
+        flags = _swapped_flags(int(outer[E])) if swap else int(outer[E])
+        if (int(outer[A]) if swap else int(outer[B])) != produced or not _same_width(int(inner[E]), flags):
             continue
-        outer[E] = _fused_flags(int(inner[E]), int(outer[E]))
+        if swap:
+            outer[A] = outer[B]
+        outer[E] = _fused_flags(int(inner[E]), flags)
         outer[OP], outer[B], outer[C] = op, inner[A], inner[B]
         fused += 1
     return fused
+
+
+def _swapped_flags(flags: int) -> int:
+    """The vector flags of an instruction whose operands `a` and `b` are swapped."""
+    a, b = flags & VECTOR_A, flags & VECTOR_B
+    return flags & ~(VECTOR_A | VECTOR_B) | (VECTOR_B if a else 0) | (VECTOR_A if b else 0)
 
 
 def _same_width(inner: int, outer: int) -> bool:
