@@ -17,7 +17,7 @@ import pytest
 from quadpipe.controllers.language.compiler import CompiledController
 from quadpipe.controllers.runtime.folding import fold
 from quadpipe.controllers.runtime.lowering import lower
-from quadpipe.controllers.runtime.ops import DIV, MUL, B
+from quadpipe.controllers.runtime.ops import COMP, COMPONENT_A, DIV, MUL, VEC, B, E
 from quadpipe.controllers.runtime.runtime import ControllerRuntime
 from quadpipe.core import configs
 from quadpipe.sim.simulation import Simulation
@@ -104,6 +104,14 @@ def test_a_spring_at_zero_stiffness_and_damping_is_dropped() -> None:
     )
     assert len(limp.code) < len(walk.code)
     assert limp.slots == walk.slots, "every force slot stays (overlays and metrics read them)"
+
+
+def test_a_component_read_by_arithmetic_costs_no_instruction() -> None:
+    gravity = dog_world().model.opt.gravity
+    walk, lowered = fold(lower(compiled("walk"), gravity)), lower(compiled("walk"), gravity)
+    assert COMP in lowered.code[:, 0], "the walk reads components (the spring terms' heights)"
+    assert COMP not in walk.code[:, 0], "every one is read by arithmetic, at its component"
+    assert any(int(row[E]) >> COMPONENT_A for row in walk.code if row[0] < VEC)
 
 
 def test_a_division_by_a_constant_power_of_two_is_a_product_by_its_reciprocal() -> None:

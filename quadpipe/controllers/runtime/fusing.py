@@ -27,6 +27,9 @@ import numpy as np
 from quadpipe.controllers.runtime.ops import (
     ADD,
     ADD_MUL,
+    COMPONENT_A,
+    COMPONENT_B,
+    COMPONENT_C,
     DST,
     JUMP_IF_NONE,
     MUL,
@@ -85,21 +88,29 @@ def fuse(code: np.ndarray, removed: set[int], read: dict[int, int], kept_registe
 
 
 def _swapped_flags(flags: int) -> int:
-    """The vector flags of an instruction whose operands `a` and `b` are swapped."""
+    """The flags of an instruction whose operands `a` and `b` are swapped (vector flags and components)."""
     a, b = flags & VECTOR_A, flags & VECTOR_B
-    return flags & ~(VECTOR_A | VECTOR_B) | (VECTOR_B if a else 0) | (VECTOR_A if b else 0)
+    component_a, component_b = (flags >> COMPONENT_A) & 3, (flags >> COMPONENT_B) & 3
+    kept = flags & ~(VECTOR_A | VECTOR_B | 3 << COMPONENT_A | 3 << COMPONENT_B)
+    return (
+        kept | (VECTOR_B if a else 0) | (VECTOR_A if b else 0) | component_b << COMPONENT_A | component_a << COMPONENT_B
+    )
 
 
 def _same_width(inner: int, outer: int) -> bool:
     """Whether the reader reads the produced value as what it is: a vector operand of a vector
-    result only where the producer made a vector (a scalar result reads first components only)."""
-    return not (outer & VECTOR_RESULT and outer & VECTOR_B) or bool(inner & VECTOR_RESULT)
+    result only where the producer made a vector (a scalar result reads first components only),
+    a scalar at its first component (not a component of a vector, `ops.COMPONENT_A`)."""
+    first = not (outer >> COMPONENT_B) & 3
+    return first and (not (outer & VECTOR_RESULT and outer & VECTOR_B) or bool(inner & VECTOR_RESULT))
 
 
 def _fused_flags(inner: int, outer: int) -> int:
-    """The vector flags of the fused op: the reader's result and `a`; the producer's `a` and `b`
-    as its `b` and `c` where the reader reads the produced vector component by component."""
+    """The flags of the fused op: the reader's result and `a`; the producer's `a` and `b` as its
+    `b` and `c` (their components, and their vector flags where the reader reads the produced
+    vector component by component)."""
     by_component = outer & VECTOR_RESULT and outer & VECTOR_B
     b = VECTOR_B if by_component and inner & VECTOR_A else 0
     c = VECTOR_C if by_component and inner & VECTOR_B else 0
-    return (outer & (VECTOR_RESULT | VECTOR_A)) | b | c
+    components = ((inner >> COMPONENT_A) & 3) << COMPONENT_B | ((inner >> COMPONENT_B) & 3) << COMPONENT_C
+    return (outer & (VECTOR_RESULT | VECTOR_A | 3 << COMPONENT_A)) | b | c | components

@@ -47,7 +47,7 @@ from quadpipe.controllers.runtime.kernel import (
     NO_FAULT,
     REAL_ARRAYS,
     TABLE_ROWS,
-    flat_ground,
+    WORLD_GEOM_GROUPS,
     program_array,
     run,
 )
@@ -60,6 +60,23 @@ from quadpipe.quantities.units import scale_for_animals
 from quadpipe.world.placement import Placement
 
 UP = np.array([0.0, 0.0, 1.0])
+
+
+def flat_ground(model: mujoco.MjModel) -> bool:
+    """Whether every geom a ground ray may hit (`kernel.WORLD_GEOM_GROUPS`) is a plane of the world
+    body, lying horizontal through z = 0 (the `flat` scene's floor): then MuJoCo's ray from a
+    point straight down finds exactly the point's z (it computes `-z / -1`), or misses a point
+    below the floor or beyond a finite plane, where the kernel's `_ground_height` answers z as
+    well (so it casts no ray: the model's row of the address table says so)."""
+    rayed = [g for g in range(model.ngeom) if 0 <= model.geom_group[g] < len(WORLD_GEOM_GROUPS)]
+    return all(
+        model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE
+        and model.geom_bodyid[g] == 0
+        and model.geom_pos[g, 2] == 0.0
+        and tuple(model.geom_quat[g]) == (1.0, 0.0, 0.0, 0.0)
+        for g in rayed
+        if WORLD_GEOM_GROUPS[model.geom_group[g]]
+    )
 
 
 @functools.cache
