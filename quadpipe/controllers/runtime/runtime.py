@@ -169,6 +169,7 @@ class ControllerRuntime:
         self.fault: str | None = None
         """The first non-finite force or spring value an element computed (None: none so far)."""
         self._length = len(self.program.code)
+        self._kernel = compiled_kernel()
         self._table_for: mujoco.MjData | None = None
         self._table: np.ndarray  # set with `_table_for` by `_address_table`
         self._table_address = 0  # the address of `_table`
@@ -318,7 +319,7 @@ class ControllerRuntime:
         difference of variation x dt / period: millionths of a cycle.
         """
         if self._clock is None and self._table_for is data:  # the common case, without `_run`'s Python
-            fault = compiled_kernel()(self._table_address, self._length, True)
+            fault = self._kernel(self._table_address, self._length, True)
             if fault != NO_FAULT and self.fault is None:
                 self.fault = self._describe_fault(fault)
         elif self._clock is None:
@@ -333,7 +334,7 @@ class ControllerRuntime:
     def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:
         """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
         table = self._table_address if self._table_for is data else self._address_table(data)
-        fault = compiled_kernel()(table, last, finish)
+        fault = self._kernel(table, last, finish)
         if fault != NO_FAULT and self.fault is None:
             self.fault = self._describe_fault(fault)
 
