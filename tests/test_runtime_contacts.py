@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from quadpipe.controllers.runtime.views import data_field
+from quadpipe.controllers.runtime.views import _probe_field, data_field
 from quadpipe.sim.simulation import Simulation
 from quadpipe.world import build_scene, load_scene
 from tests.conftest import built_animal
@@ -51,9 +51,9 @@ def test_data_fields_are_the_data_time_and_contact_count() -> None:
         sim.step()
         before = (sim.data.time, sim.data.ncon)
         assert (ctypes.c_double.from_address(time_at).value, ctypes.c_int32.from_address(ncon_at).value) == before
-        assert data_field(sim.data, "time", np.float64) == time_at, "found again at the same place"
+        assert _probe_field(sim.data, "ncon", np.int32) == ncon_at, "found again at the same place"
         assert (sim.data.time, sim.data.ncon) == before, "the probes put the values back"
         seen.add(before[1])
     assert len(seen) > 1, "the dog's contacts came and went"
     with pytest.raises(ValueError, match="maxuse_con"):
-        data_field(sim.data, "maxuse_con", np.int32)  # a field before the searched part of the struct
+        _probe_field(sim.data, "maxuse_con", np.int32)  # a field before the searched part of the struct

@@ -170,6 +170,7 @@ class ControllerRuntime:
         """The first non-finite force or spring value an element computed (None: none so far)."""
         self._length = len(self.program.code)
         self._kernel = compiled_kernel()
+        self._flat_ground = flat_ground(model)  # for the address table, made at the first step
         self._table_for: mujoco.MjData | None = None
         self._table: np.ndarray  # set with `_table_for` by `_address_table`
         self._table_address = 0  # the address of `_table`
@@ -378,7 +379,7 @@ class ControllerRuntime:
             + [address_row(array, np.float64) for array in mujoco_arrays]
             + [contact_row(view) for view in self._contacts]
             + [
-                (self.model._address, int(flat_ground(self.model)), 0, 0),
+                (self.model._address, int(self._flat_ground), 0, 0),
                 (data._address, data_field(data, "time", np.float64), data_field(data, "ncon", np.int32), 0),
             ]
         )

@@ -98,31 +98,40 @@ def data_field(data: Any, name: str, dtype: type) -> int:
     The struct's layout changes between MuJoCo versions, so the field is found where writing
     two probe values into it (`PROBES`, the field's value put back after) shows them, in the
     part of the struct between its arrays `solver_fwdinv` and `energy` (MuJoCo's sizes, such
-    as `ncon`, and its `time`).
+    as `ncon`, and its `time`), once per process (`_FIELD_OFFSETS`: one MuJoCo library, one
+    layout).
 
     Raises:
         ValueError: the field is not found there, or at more than one place.
     """
-    start = data.solver_fwdinv.ctypes.data + data.solver_fwdinv.nbytes
-    stop = data.energy.ctypes.data
-    memory = np.ctypeslib.as_array((ctypes.c_char * (stop - start)).from_address(start)).view(np.uint8)
+    key = (name, np.dtype(dtype))
+    if key not in _FIELD_OFFSETS:
+        _FIELD_OFFSETS[key] = _probe_field(data, name, dtype) - data._address
+    return int(data._address) + _FIELD_OFFSETS[key]
+
+
+_FIELD_OFFSETS: dict[tuple[str, np.dtype], int] = {}
+"""The offset in MuJoCo's data struct of each field `data_field` found."""
+
+
+def _probe_field(data: Any, name: str, dtype: type) -> int:
+    """The address of field `name` of `data`, found by probing (see `data_field`)."""
     kind, kept = np.dtype(dtype), getattr(data, name)
-    found = None
+    start = data.solver_fwdinv.ctypes.data + data.solver_fwdinv.nbytes
+    start += -start % kind.itemsize  # the field is aligned
+    count = (data.energy.ctypes.data - start) // kind.itemsize
+    memory = np.ctypeslib.as_array((ctypes.c_char * (count * kind.itemsize)).from_address(start)).view(kind)
+    found = np.ones(count, dtype=bool)
     try:
         for probe in PROBES[kind]:
             setattr(data, name, probe)
-            pattern = np.array(probe, kind).tobytes()
-            places = {
-                offset
-                for offset in range(-start % kind.itemsize, len(memory) - kind.itemsize + 1, kind.itemsize)
-                if memory[offset : offset + kind.itemsize].tobytes() == pattern
-            }
-            found = places if found is None else found & places
+            found &= memory == kind.type(probe)
     finally:
         setattr(data, name, kept)
-    if found is None or len(found) != 1:
+    places = np.flatnonzero(found)
+    if len(places) != 1:
         raise ValueError(f"MuJoCo's data field {name!r} is not where the kernel looks for it")
-    return start + found.pop()
+    return start + int(places[0]) * kind.itemsize
 
 
 TABLE_WIDTH = 4
