@@ -17,6 +17,7 @@ import pytest
 from quadpipe.controllers.language.compiler import CompiledController
 from quadpipe.controllers.runtime.folding import fold
 from quadpipe.controllers.runtime.lowering import lower
+from quadpipe.controllers.runtime.ops import COMP, COMPONENT_A, DIV, MUL, VEC, B, E
 from quadpipe.controllers.runtime.runtime import ControllerRuntime
 from quadpipe.core import configs
 from quadpipe.sim.simulation import Simulation
@@ -103,6 +104,29 @@ def test_a_spring_at_zero_stiffness_and_damping_is_dropped() -> None:
     )
     assert len(limp.code) < len(walk.code)
     assert limp.slots == walk.slots, "every force slot stays (overlays and metrics read them)"
+
+
+def test_a_component_read_by_arithmetic_costs_no_instruction() -> None:
+    gravity = dog_world().model.opt.gravity
+    walk, lowered = fold(lower(compiled("walk"), gravity)), lower(compiled("walk"), gravity)
+    assert COMP in lowered.code[:, 0], "the walk reads components (the spring terms' heights)"
+    assert COMP not in walk.code[:, 0], "every one is read by arithmetic, at its component"
+    assert any(int(row[E]) >> COMPONENT_A for row in walk.code if row[0] < VEC)
+
+
+def test_a_division_by_a_constant_power_of_two_is_a_product_by_its_reciprocal() -> None:
+    program = fold(lower(compiled("auto_gait"), dog_world().model.opt.gravity), fused=False)
+    divisors = [program.constants.get(int(row[B])) for row in program.code if row[0] == DIV]
+    assert not [d for d in divisors if d is not None and (np.abs(np.frexp(d)[0]) == 0.5).all()]
+    assert [d for d in divisors if d is not None], "a division by another constant stays (1 / d is not exact)"
+    halves = [
+        row for row in program.code if row[0] == MUL and (program.constants.get(int(row[B]), np.ones(1)) == 0.5).all()
+    ]
+    assert halves, "auto_gait's halvings (x / 2) are products by 0.5"
+    dividends = np.array([1.0, -3.0, 0.1, 5e-324, 2.2e-308, 1.7e308, np.inf, -0.0])
+    for power in (2.0, 0.5, -4.0, 2.0**-1022, 2.0**1023):
+        with np.errstate(over="ignore"):  # 1.7e308 / 2**-1022 is inf both ways
+            np.testing.assert_array_equal(dividends / power, dividends * (1.0 / power))
 
 
 NEUTRAL_TUNABLES = {

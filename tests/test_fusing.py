@@ -16,8 +16,13 @@ from quadpipe.controllers.runtime.fusing import FUSED, fuse
 from quadpipe.controllers.runtime.lowering import lower
 from quadpipe.controllers.runtime.ops import (
     ADD,
+    ADD_MUL,
+    COMPONENT_A,
+    COMPONENT_B,
+    COMPONENT_C,
     JUMP_IF_NONE,
     MUL,
+    MUL_MUL,
     SUB,
     SUB_MUL,
     VECTOR_A,
@@ -59,6 +64,22 @@ def test_a_scalar_product_read_by_a_vector_difference_is_fused_as_a_scalar() -> 
     np.testing.assert_array_equal(code[1], [SUB_MUL, 6, 3, 1, 2, 0, VECTOR_RESULT | VECTOR_A])
 
 
+def test_a_product_read_as_operand_a_of_a_sum_or_product_is_fused_with_the_operands_swapped() -> None:
+    product = [MUL, 5, 1, 2, 0, 0, VECTOR_AB]
+    sum_ = fused_rows(product, [ADD, 6, 5, 3, 0, 0, VECTOR_RESULT | VECTOR_A])
+    np.testing.assert_array_equal(sum_[1], [ADD_MUL, 6, 3, 1, 2, 0, VECTOR_RESULT | VECTOR_B | VECTOR_C])
+    scaled = fused_rows(product, [MUL, 6, 5, 3, 0, 0, VECTOR_AB])
+    np.testing.assert_array_equal(scaled[1], [MUL_MUL, 6, 3, 1, 2, 0, VECTOR_AB | VECTOR_C])
+
+
+def test_the_components_read_by_a_fused_pair_stay_with_their_operands() -> None:
+    y_of_1, z_of_2, y_of_3 = 1 << COMPONENT_A, 2 << COMPONENT_B, 1 << COMPONENT_A
+    code = fused_rows([MUL, 5, 1, 2, 0, 0, y_of_1 | z_of_2], [SUB, 6, 3, 5, 0, 0, y_of_3])
+    np.testing.assert_array_equal(code[1], [SUB_MUL, 6, 3, 1, 2, 0, y_of_3 | 1 << COMPONENT_B | 2 << COMPONENT_C])
+    swapped = fused_rows([MUL, 5, 1, 2, 0, 0, 0], [ADD, 6, 5, 3, 0, 0, 2 << COMPONENT_B])
+    np.testing.assert_array_equal(swapped[1], [ADD_MUL, 6, 3, 1, 2, 0, 2 << COMPONENT_A])
+
+
 def test_only_a_value_read_once_right_after_it_is_made_is_fused() -> None:
     product, difference = [MUL, 5, 1, 2, 0, 0, 0], [SUB, 6, 3, 5, 0, 0, 0]
     cases = {
@@ -68,6 +89,7 @@ def test_only_a_value_read_once_right_after_it_is_made_is_fused() -> None:
         "a sensor": ([product, difference], {"sensors": frozenset({5})}),
         "a jump target": ([[JUMP_IF_NONE, 0, 4, 2, 0, 0, 0], product, difference], {}),
         "not a fused pair": ([[ADD, 5, 1, 2, 0, 0, 0], difference], {}),
+        "a component of it": ([[MUL, 5, 1, 2, 0, 0, VECTOR_AB], [SUB, 6, 3, 5, 0, 0, 1 << COMPONENT_B]], {}),
     }
     for case, (rows, options) in cases.items():
         code = fused_rows(*rows, **options)

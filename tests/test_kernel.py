@@ -287,10 +287,10 @@ def test_height_sensors_measure_the_ground_below_as_a_ray_cast_does(tmp_path: Pa
 
 
 def test_a_flat_floor_is_read_without_a_ray_and_exactly_as_a_ray_reads_it() -> None:
-    """On a floor of horizontal planes through z = 0 (`kernel.flat_ground`) the kernel answers a
+    """On a floor of horizontal planes through z = 0 (`runtime.flat_ground`) the kernel answers a
     `height` sensor with the point's own z instead of casting a ray: MuJoCo's ray gives that
     very number, bit for bit, above the floor, below it and past a finite plane's edge."""
-    from quadpipe.controllers.runtime.kernel import flat_ground
+    from quadpipe.controllers.runtime.runtime import flat_ground
 
     built = built_animal("dog")
     hp = built.animal.pelvis_height

@@ -4,19 +4,23 @@
 needs nothing from the simulation into a constant. What it leaves are operations with a
 constant operand that decides their result: a spring of stiffness 0 masked by its machine's
 state (`0 * mask`), a tunable at 0 (`unload * smoothstep(...)`), `x * 1`, `x + 0`, a `mix`
-by 0. `fold(program)` runs four passes over the program:
+by 0. `fold(program)` runs five passes over the program:
 
 1. **Identities** (`_identity`), in program order: an operation whose constant operands
    decide its value becomes a constant (`x * 0`, `0 / x`, `0 and c`, any exact operation of
    constants only); one that just passes an operand through is replaced by that operand in
    every later instruction (`x * 1`, `x + 0`, `x - 0`, `x / 1`, `mix(x, y, 0)`, a `select`
-   on a constant condition or between two equal values). Constants found this way enable more of them downstream.
+   on a constant condition or between two equal values), and a division by a constant power of
+   two becomes a product by its exact reciprocal (the same bits, and a product can be fused).
+   Constants found this way enable more of them downstream.
 2. **Dead springs**: a spring whose stiffness and damping are both constant 0 adds nothing.
-3. **Dead code** (`_live`): an instruction whose result no kept instruction reads is
+3. **Components** (`_forward_components`): an elementwise op reading `COMP(v, k)` reads
+   component k of v itself, and the `COMP` is dropped with the dead code.
+4. **Dead code** (`_live`): an instruction whose result no kept instruction reads is
    dropped, and a state-machine block left empty loses its jump; the registers still read
    are renumbered densely (a table's blocks of constants stay whole and consecutive), so the
    register file shrinks with the program.
-4. **Fusing** (`quadpipe.controllers.runtime.fusing`): a product or difference read only by
+5. **Fusing** (`quadpipe.controllers.runtime.fusing`): a product or difference read only by
    the next instruction, as its operand b, is computed inside it (`a - b * c` and the like),
    and the dead code pass runs again to drop it.
 
@@ -44,6 +48,9 @@ from quadpipe.controllers.runtime.ops import (
     ANGLE,
     BODYROT,
     COMP,
+    COMPONENT_A,
+    COMPONENT_B,
+    COMPONENT_C,
     CROSS,
     DIV,
     DOT,
@@ -66,6 +73,7 @@ from quadpipe.controllers.runtime.ops import (
     NORM,
     NORMALIZE,
     NOT,
+    OP,
     OR,
     SELECT,
     SMOOTH,
@@ -143,6 +151,7 @@ class _Folder:
         self.constants = dict(program.constants)
         self.alias: dict[int, int] = {}
         self.removed: set[int] = set()
+        self.next_register = program.registers
         self.state_registers = {int(row[DST]) for row in self.code if row[0] in WRITES_REGISTER and row[0] != ZERO}
 
     def constant(self, register: int) -> np.ndarray | None:
@@ -198,6 +207,31 @@ class _Folder:
                 self._pass_through(index, row, C)
         elif op == SELECT and self._same_value(int(row[B]), int(row[C])):
             self._pass_through(index, row, B)
+        elif op == DIV and (reciprocal := self._exact_reciprocal(row, flags)) is not None:
+            row[0], row[B] = MUL, self._new_constant(reciprocal)
+
+    def _exact_reciprocal(self, row: np.ndarray, flags: int) -> np.ndarray | None:
+        """1 / the divisor of a division, where the divisor is a constant power of two, whose
+        reciprocal is exact: then `x / d` and `x * (1 / d)` round the same real number, bit for
+        bit, for every x (and d is no 0, the kernel's guarded case)."""
+        if self.constant(int(row[B])) is None:
+            return None
+        divisor = self.operand(row, B, flags)
+        with np.errstate(all="ignore"):
+            reciprocal = 1.0 / divisor
+        exact = (
+            (np.abs(np.frexp(divisor)[0]) == 0.5)
+            & (np.abs(np.frexp(reciprocal)[0]) == 0.5)
+            & (reciprocal * divisor == 1.0)
+        )
+        return reciprocal if bool(exact.all()) else None
+
+    def _new_constant(self, value: np.ndarray) -> int:
+        """A register, numbered after the program's, that holds the constant `value`."""
+        register = self.next_register
+        self.next_register += 1
+        self.constants[register] = np.ascontiguousarray(value, dtype=float)
+        return register
 
     def _same_value(self, first: int, second: int) -> bool:
         """Whether two registers always hold the same bits: one register, or two constants
@@ -241,12 +275,45 @@ def _live(code: np.ndarray, removed: set[int]) -> list[int]:
     return kept[::-1]
 
 
+def _forward_components(code: np.ndarray, kept: list[int]) -> None:
+    """Let the elementwise readers of `COMP(v, k)` (component k of v, in all three components)
+    read v's component k themselves (`ops.COMPONENT_A`), where v is not written between the
+    two and the `COMP` is in no state's block that the reader is not in; the `COMP` is then
+    dead where nothing else reads it."""
+    writes: dict[int, list[int]] = {}
+    for index in kept:
+        if writes_register(int(code[index, OP])):
+            writes.setdefault(int(code[index, DST]), []).append(index)
+    comps = {int(code[i, DST]): i for i in kept if code[i, OP] == COMP and len(writes[int(code[i, DST])]) == 1}
+    blocks = [(i, int(code[i, B])) for i in kept if code[i, OP] == JUMP_IF_NONE]
+    for index in kept:
+        row = code[index]
+        if row[OP] >= VEC:
+            continue
+        for field in read_fields(int(row[OP])):
+            at = comps.get(int(row[field]), index)
+            vector, component = int(code[at, A]), int(code[at, B])
+            if at >= index or any(at < w < index for w in writes.get(vector, ())):
+                continue
+            if any(jump < at < end <= index for jump, end in blocks):
+                continue
+            flags = int(row[E]) & ~(1 << (field - DST)) & ~(3 << component_shift(field))
+            row[field], row[E] = vector, flags | component << component_shift(field)
+
+
+def component_shift(field: int) -> int:
+    """The shift of the component bits (`ops.COMPONENT_A`) of the operand in column `field`."""
+    return {A: COMPONENT_A, B: COMPONENT_B, C: COMPONENT_C}[field]
+
+
 def fold(program: Program, *, fused: bool = True) -> Program:
     """The program folded (see the module docstring): same forces, fewer instructions and
     registers; `fused=False` leaves out the fusing pass (to check or time it)."""
     folder = _Folder(program)
     folder.run()
     kept = _live(folder.code, folder.removed)
+    _forward_components(folder.code, kept)
+    kept = _live(folder.code, set(range(len(folder.code))) - set(kept))
     if fused:
         dropped = set(range(len(folder.code))) - set(kept)
         reads = Counter(int(row[f]) for row in folder.code[kept] for f in read_fields(int(row[0])))

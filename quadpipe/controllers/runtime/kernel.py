@@ -31,14 +31,24 @@ One call of `run` does, in order:
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numba
 import numpy as np
 
 from quadpipe.controllers.runtime import ops
 from quadpipe.controllers.runtime.mjlib import mj_ray
-from quadpipe.controllers.runtime.views import int32s2, ints1, ints2, reals1, reals2, reals3, table_at, uint32s2
+from quadpipe.controllers.runtime.views import (
+    int32_at,
+    int32s2,
+    ints1,
+    ints2,
+    real_at,
+    reals1,
+    reals2,
+    reals3,
+    table_at,
+    uint32s2,
+)
 
 ZERO_NORM = 1e-12
 """Vectors shorter than this have no direction (as in `expressions.ZERO_NORM`)."""
@@ -64,26 +74,6 @@ WORLD_GEOM_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
 DOWN = -np.array([0.0, 0.0, 1.0])
 """Direction of a ground ray."""
 
-PLANE_GEOM = 0
-"""`mujoco.mjtGeom.mjGEOM_PLANE`."""
-
-
-def flat_ground(model: Any) -> bool:
-    """Whether every geom a ground ray may hit (`WORLD_GEOM_GROUPS`) is a plane of the world
-    body, lying horizontal through z = 0 (the `flat` scene's floor): then MuJoCo's ray from a
-    point straight down finds exactly the point's z (it computes `-z / -1`), or misses a point
-    below the floor or beyond a finite plane, where `_ground_height` answers z as well."""
-    rayed = [g for g in range(model.ngeom) if 0 <= model.geom_group[g] < len(WORLD_GEOM_GROUPS)]
-    return all(
-        model.geom_type[g] == PLANE_GEOM
-        and model.geom_bodyid[g] == 0
-        and model.geom_pos[g, 2] == 0.0
-        and tuple(model.geom_quat[g]) == (1.0, 0.0, 0.0, 0.0)
-        for g in rayed
-        if WORLD_GEOM_GROUPS[model.geom_group[g]]
-    )
-
-
 NO_FAULT = -1
 """What `run` returns when every force and spring value was finite; else it returns the first
 force slot with a non-finite force, or the number of slots plus the first such spring."""
@@ -107,11 +97,12 @@ INTEGER_ARRAYS = (
 
 REAL_ARRAYS = (
     "registers", "point_offset", "base_damping", "slot_point", "slot_force", "phase", "time_in_state",
-    "damping", "contact", "normals", "heading",
+    "damping", "contact", "normals", "heading", "timestep",
 )  # fmt: skip
-"""The float64 arrays of a runtime, rows of the address table after `INTEGER_ARRAYS`."""
+"""The float64 arrays of a runtime, rows of the address table after `INTEGER_ARRAYS` (`timestep`:
+one value, the physics step in seconds, which `run` would otherwise take as an argument)."""
 (REGISTERS, POINT_OFFSET, BASE_DAMPING, SLOT_POINT, SLOT_FORCE, PHASES, TIME_IN_STATE, DAMPING, CONTACTS,
- NORMALS, HEADING_FRAMES) = range(1 + len(INTEGER_ARRAYS), 1 + len(INTEGER_ARRAYS) + len(REAL_ARRAYS))  # fmt: skip
+ NORMALS, HEADING_FRAMES, TIMESTEP) = range(1 + len(INTEGER_ARRAYS), 1 + len(INTEGER_ARRAYS) + len(REAL_ARRAYS))  # fmt: skip
 
 MUJOCO_ARRAYS = (
     "xpos", "xmat", "xipos", "cvel", "subtree_com", "qpos", "qfrc_applied", "xfrc_applied", "dof_damping",
@@ -120,7 +111,9 @@ MUJOCO_ARRAYS = (
 table after `REAL_ARRAYS`; then two rows hold MuJoCo's contacts (`CONTACT_GEOMS`,
 `CONTACT_FRAMES`: see `contact_row`), and two the addresses of the model and the data
 themselves (`MODEL`, `DATA`, for `mj_ray`; the model's row also says, in its second field,
-whether the ground is flat: `flat_ground`)."""
+whether the ground is flat: `runtime.flat_ground`; the data's row holds, in its second and third
+fields, the addresses of the data's `time` (float64) and `ncon` (int32): `views.data_field`,
+which the kernel reads itself, where reading them in Python costs ~0.2 µs each)."""
 (XPOS, XMAT, XIPOS, CVEL, SUBTREE_COM, QPOS, QFRC, XFRC, DOF_DAMPING, CONTACT_GEOMS, CONTACT_FRAMES, MODEL, DATA) = (
     range(REGISTERS + len(REAL_ARRAYS), REGISTERS + len(REAL_ARRAYS) + len(MUJOCO_ARRAYS) + 4)
 )  # fmt: skip
@@ -298,7 +291,7 @@ def _ground_height(model: int, data: int, point: np.ndarray, flat: bool) -> floa
     """Height of `point` (3,), contiguous, above the world geom straight below it (terrain or
     prop, static or not; no animal's bone); its z when there is none. `model` and `data` are
     MuJoCo's, by address. `flat`: the only geoms a ray may hit are horizontal planes through
-    z = 0 (`flat_ground`), where MuJoCo's ray finds the point's own z (or misses, and z is
+    z = 0 (`runtime.flat_ground`), where MuJoCo's ray finds the point's own z (or misses, and z is
     the answer), so no ray is cast."""
     if flat:
         return point[2]
@@ -364,16 +357,17 @@ def _headings(
 
 
 @numba.njit(cache=True, nogil=True)
-def run(address: int, dt: float, last: int, finish: bool, time: float, ncon: int) -> int:
+def run(address: int, last: int, finish: bool) -> int:
     """Run the instructions of a controller program up to `last` (see the module docstring).
 
     `address` is that of the address table (`TABLE_ROWS` rows, `views.address_table`), which
     holds the address and shape of every array the kernel uses: the
-    program, the registers, the runtime's tables and state, and MuJoCo's own arrays (forces
-    are added into `xfrc_applied` and `qfrc_applied`, damping written into the model's
-    `dof_damping`), and the addresses of the model and the data, for MuJoCo's ray casts
-    (`HEIGHT`), and MuJoCo's contacts, of which the first `ncon` are read. The other arguments
-    change every call.
+    program, the registers, the runtime's tables and state (the time step among them), and
+    MuJoCo's own arrays (forces are added into `xfrc_applied` and `qfrc_applied`, damping
+    written into the model's `dof_damping`), and the addresses of the model and the data, for
+    MuJoCo's ray casts (`HEIGHT`), of the data's `time` and `ncon`, and MuJoCo's contacts, of
+    which the first `ncon` are read. Every argument is a number: numba's dispatcher converts
+    each argument on every call, a number in ~0.04 µs.
 
     A force or spring value that is NaN or infinite is not applied: `run` returns where it
     was (see `NO_FAULT`), for the runtime to report.
@@ -395,7 +389,8 @@ def run(address: int, dt: float, last: int, finish: bool, time: float, ncon: int
     xpos, xmat, xipos = reals2(table, XPOS), reals2(table, XMAT), reals2(table, XIPOS)
     cvel, subtree_com, qpos = reals2(table, CVEL), reals2(table, SUBTREE_COM), reals1(table, QPOS)
     qfrc, xfrc, dof_damping = reals1(table, QFRC), reals2(table, XFRC), reals1(table, DOF_DAMPING)
-    model, data, flat = table[MODEL, 0], table[DATA, 0], table[MODEL, 1] != 0
+    model, data, flat, dt = table[MODEL, 0], table[DATA, 0], table[MODEL, 1] != 0, reals1(table, TIMESTEP)[0]
+    time, ncon = real_at(table[DATA, 1]), int32_at(table[DATA, 2])
     contact_geoms, contact_frames = int32s2(table, CONTACT_GEOMS), reals2(table, CONTACT_FRAMES)
     _contacts(ncon, contact_geoms, contact_frames, leg_of_geom, animal_of_geom, contact, normals)
     _headings(xpos, xmat, point_body, point_offset, heading_points[0], heading_points[1], heading)
@@ -415,15 +410,17 @@ def run(address: int, dt: float, last: int, finish: bool, time: float, ncon: int
             code[pc, 6],
         )
         pc += 1
-        if op < ops.VEC:
+        if op < ops.VEC:  # a scalar operand is read at its component (`ops.COMPONENT_A`), a vector's all three
+            ca, cb, cc = (e >> ops.COMPONENT_A) & 3, (e >> ops.COMPONENT_B) & 3, (e >> ops.COMPONENT_C) & 3
             if e & ops.VECTOR_RESULT:
                 sa, sb, sc = (e >> 1) & 1, (e >> 2) & 1, (e >> 3) & 1
                 for i in range(n):
                     for k in range(3):
-                        reg[dst, i, k] = _elementwise(op, reg[a, i, k * sa], reg[b, i, k * sb], reg[c, i, k * sc])
-            else:  # a scalar result reads the first component of every operand
+                        x, y, z = reg[a, i, k * sa + ca], reg[b, i, k * sb + cb], reg[c, i, k * sc + cc]
+                        reg[dst, i, k] = _elementwise(op, x, y, z)
+            else:  # a scalar result: every operand read as a scalar
                 for i in range(n):
-                    reg[dst, i, 0] = _elementwise(op, reg[a, i, 0], reg[b, i, 0], reg[c, i, 0])
+                    reg[dst, i, 0] = _elementwise(op, reg[a, i, ca], reg[b, i, cb], reg[c, i, cc])
         elif op == ops.VEC:
             for i in range(n):
                 reg[dst, i, 0], reg[dst, i, 1], reg[dst, i, 2] = reg[a, i, 0], reg[b, i, 0], reg[c, i, 0]

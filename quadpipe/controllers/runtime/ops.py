@@ -11,6 +11,13 @@ from __future__ import annotations
 VECTOR_RESULT, VECTOR_A, VECTOR_B, VECTOR_C = 1, 2, 4, 8
 """the vector flags of an elementwise op (its `e`): the result, operand a, b, c are vectors."""
 
+COMPONENT_A, COMPONENT_B, COMPONENT_C = 4, 6, 8
+"""Where an elementwise op's `e` holds, after its vector flags, two bits per operand a, b, c
+(these shifts): the component read from a scalar operand (0: x, as lowering emits; 1, 2: y, z,
+where folding reads `COMP(v, k)` straight from `v`, `quadpipe.controllers.runtime.folding`). A
+vector operand's are 0."""
+
+
 # Opcodes. Arithmetic (dst, a, b, c are registers), elementwise (see `VECTOR_RESULT`).
 ADD, SUB, MUL, DIV, POW, MIN, MAX, ATAN2 = 1, 2, 3, 4, 5, 6, 7, 8
 LT, LE, GT, GE, AND, OR, STEP = 9, 10, 11, 12, 13, 14, 15

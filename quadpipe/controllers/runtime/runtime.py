@@ -23,11 +23,13 @@ Each step (between `mj_step1` and `mj_step2`, so positions and velocities are cu
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import functools
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import mujoco
+import numba
 import numpy as np
 
 from quadpipe.anatomy.roles import FOOT_BONES, JOINT_AXES, LEGS, ROLES
@@ -45,19 +47,45 @@ from quadpipe.controllers.runtime.kernel import (
     NO_FAULT,
     REAL_ARRAYS,
     TABLE_ROWS,
-    flat_ground,
+    WORLD_GEOM_GROUPS,
     program_array,
     run,
 )
 from quadpipe.controllers.runtime.lowering import HEADING_POINTS, Program, lower
 from quadpipe.controllers.runtime.variation import StrideClock, Variation
-from quadpipe.controllers.runtime.views import address_row, address_table, contact_row
+from quadpipe.controllers.runtime.views import address_row, address_table, contact_row, data_field
 from quadpipe.core import configs
 from quadpipe.core.errors import Location, QuadpipeError
 from quadpipe.quantities.units import scale_for_animals
 from quadpipe.world.placement import Placement
 
 UP = np.array([0.0, 0.0, 1.0])
+
+
+def flat_ground(model: mujoco.MjModel) -> bool:
+    """Whether every geom a ground ray may hit (`kernel.WORLD_GEOM_GROUPS`) is a plane of the world
+    body, lying horizontal through z = 0 (the `flat` scene's floor): then MuJoCo's ray from a
+    point straight down finds exactly the point's z (it computes `-z / -1`), or misses a point
+    below the floor or beyond a finite plane, where the kernel's `_ground_height` answers z as
+    well (so it casts no ray: the model's row of the address table says so)."""
+    rayed = [g for g in range(model.ngeom) if 0 <= model.geom_group[g] < len(WORLD_GEOM_GROUPS)]
+    return all(
+        model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE
+        and model.geom_bodyid[g] == 0
+        and model.geom_pos[g, 2] == 0.0
+        and tuple(model.geom_quat[g]) == (1.0, 0.0, 0.0, 0.0)
+        for g in rayed
+        if WORLD_GEOM_GROUPS[model.geom_group[g]]
+    )
+
+
+@functools.cache
+def compiled_kernel() -> Callable[[int, int, bool], int]:
+    """`kernel.run` compiled for the runtime's arguments (the table's address, the last
+    instruction, whether to finish the step), called without numba's dispatcher, which types
+    every argument on every call to choose a compilation (~0.35 µs a call: there is one)."""
+    entry: Callable[[int, int, bool], int] = run.compile((numba.int64, numba.int64, numba.boolean))
+    return entry
 
 
 @dataclass
@@ -121,7 +149,11 @@ class ControllerRuntime:
         registers = np.zeros((self.program.registers, self.n, 3))
         for register, value in self.program.constants.items():
             registers[register] = value
-        arrays = {"registers": registers} | self._bind(self.program) | self._initial_state(self.program)
+        arrays = (
+            {"registers": registers, "timestep": np.array([self.dt])}
+            | self._bind(self.program)
+            | self._initial_state(self.program)
+        )
         self._arrays = (
             {"code": program_array(self.program.code)}
             | {name: np.ascontiguousarray(arrays[name], np.int64) for name in INTEGER_ARRAYS}
@@ -137,6 +169,8 @@ class ControllerRuntime:
         self.fault: str | None = None
         """The first non-finite force or spring value an element computed (None: none so far)."""
         self._length = len(self.program.code)
+        self._kernel = compiled_kernel()
+        self._flat_ground = flat_ground(model)  # for the address table, made at the first step
         self._table_for: mujoco.MjData | None = None
         self._table: np.ndarray  # set with `_table_for` by `_address_table`
         self._table_address = 0  # the address of `_table`
@@ -285,7 +319,11 @@ class ControllerRuntime:
         factor (`StrideClock.advance`); the step's own forces saw the unscaled advance, a
         difference of variation x dt / period: millionths of a cycle.
         """
-        if self._clock is None:
+        if self._clock is None and self._table_for is data:  # the common case, without `_run`'s Python
+            fault = self._kernel(self._table_address, self._length, True)
+            if fault != NO_FAULT and self.fault is None:
+                self.fault = self._describe_fault(fault)
+        elif self._clock is None:
             self._run(data, self._length, True)
         else:
             phase = self._arrays["phase"]
@@ -297,7 +335,7 @@ class ControllerRuntime:
     def _run(self, data: mujoco.MjData, last: int, finish: bool) -> None:
         """Run the program's instructions up to `last` on the current state (see `kernel.run`)."""
         table = self._table_address if self._table_for is data else self._address_table(data)
-        fault = run(table, self.dt, last, finish, data.time, data.ncon)
+        fault = self._kernel(table, last, finish)
         if fault != NO_FAULT and self.fault is None:
             self.fault = self._describe_fault(fault)
 
@@ -340,7 +378,10 @@ class ControllerRuntime:
             self._own_rows
             + [address_row(array, np.float64) for array in mujoco_arrays]
             + [contact_row(view) for view in self._contacts]
-            + [(self.model._address, int(flat_ground(self.model)), 0, 0), (data._address, 0, 0, 0)]
+            + [
+                (self.model._address, int(self._flat_ground), 0, 0),
+                (data._address, data_field(data, "time", np.float64), data_field(data, "ncon", np.int32), 0),
+            ]
         )
         assert len(self._table) == TABLE_ROWS, "the runtime's table rows are the kernel's"
         self._table_address = self._table.ctypes.data

@@ -8,6 +8,7 @@ the arrays alive).
 
 from __future__ import annotations
 
+import ctypes
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -71,6 +72,66 @@ def reals2(table: np.ndarray, row: int) -> np.ndarray:
 def reals3(table: np.ndarray, row: int) -> np.ndarray:
     """The float64 array of address table row `row`, as (d0, d1, d2)."""
     return numba.carray(_pointer(table[row, 0], numba.float64), (table[row, 1], table[row, 2], table[row, 3]))
+
+
+@numba.njit(cache=True, inline="always")
+def real_at(address: int) -> float:
+    """The float64 at `address` (a scalar of MuJoCo's data: `data_field`)."""
+    return numba.carray(_pointer(address, numba.float64), 1)[0]
+
+
+@numba.njit(cache=True, inline="always")
+def int32_at(address: int) -> int:
+    """The int32 at `address` (a scalar of MuJoCo's data: `data_field`)."""
+    return numba.carray(_pointer(address, numba.int32), 1)[0]
+
+
+PROBES = {np.dtype(np.float64): (-1.2345678901234567e-300, 3.3e-300), np.dtype(np.int32): (-123456789, -987654321)}
+"""Two values per type that `data_field` writes into a field to find it (values MuJoCo never
+holds there: a negative count, a time of -1e-300 s)."""
+
+
+def data_field(data: Any, name: str, dtype: type) -> int:
+    """The address of the scalar field `name` (of `dtype`: float64 or int32) of MuJoCo's data
+    struct `data` (`mujoco.MjData`), for the kernel to read it itself.
+
+    The struct's layout changes between MuJoCo versions, so the field is found where writing
+    two probe values into it (`PROBES`, the field's value put back after) shows them, in the
+    part of the struct between its arrays `solver_fwdinv` and `energy` (MuJoCo's sizes, such
+    as `ncon`, and its `time`), once per process (`_FIELD_OFFSETS`: one MuJoCo library, one
+    layout).
+
+    Raises:
+        ValueError: the field is not found there, or at more than one place.
+    """
+    key = (name, np.dtype(dtype))
+    if key not in _FIELD_OFFSETS:
+        _FIELD_OFFSETS[key] = _probe_field(data, name, dtype) - data._address
+    return int(data._address) + _FIELD_OFFSETS[key]
+
+
+_FIELD_OFFSETS: dict[tuple[str, np.dtype], int] = {}
+"""The offset in MuJoCo's data struct of each field `data_field` found."""
+
+
+def _probe_field(data: Any, name: str, dtype: type) -> int:
+    """The address of field `name` of `data`, found by probing (see `data_field`)."""
+    kind, kept = np.dtype(dtype), getattr(data, name)
+    start = data.solver_fwdinv.ctypes.data + data.solver_fwdinv.nbytes
+    start += -start % kind.itemsize  # the field is aligned
+    count = (data.energy.ctypes.data - start) // kind.itemsize
+    memory = np.ctypeslib.as_array((ctypes.c_char * (count * kind.itemsize)).from_address(start)).view(kind)
+    found = np.ones(count, dtype=bool)
+    try:
+        for probe in PROBES[kind]:
+            setattr(data, name, probe)
+            found &= memory == kind.type(probe)
+    finally:
+        setattr(data, name, kept)
+    places = np.flatnonzero(found)
+    if len(places) != 1:
+        raise ValueError(f"MuJoCo's data field {name!r} is not where the kernel looks for it")
+    return start + int(places[0]) * kind.itemsize
 
 
 TABLE_WIDTH = 4
