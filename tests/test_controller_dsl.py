@@ -252,6 +252,31 @@ def test_length2_strength_is_factor_times_rest_length_squared(two_animals: Scale
     assert compiled.elements["lh_leg"].value("strength").constant == pytest.approx(expected)
 
 
+def test_a_legs_rest_length_is_a_constant_length_per_animal_from_its_top_to_its_foot(two_animals: Scale) -> None:
+    rest = two_animals.rest_points
+    compiled = compile_quantity("rh.rest_length / 2 + lf.rest_length", two_animals, LENGTH)
+    hind = np.linalg.norm(rest["rh_hpha2.end"] - rest["rh_hip.start"], axis=-1)
+    front = np.linalg.norm(rest["lf_fpha1.end"] - rest["lf_scapula.start"], axis=-1)
+    assert compiled.needs == frozenset()
+    assert compiled.constant == pytest.approx(hind / 2 + front)
+    assert hind[0] != pytest.approx(front[0])
+
+
+@pytest.mark.parametrize(
+    ("text", "code", "message"),
+    [
+        ("lf.rest_lenght", "bad-point", "did you mean 'rest_length'"),
+        ("lf_elbow.rest_length", "bad-point", "a bone has the points .start, .end and .mid"),
+        ("lf.rest_length", "wrong-dimension", "expected a time, got a length"),
+    ],
+)
+def test_a_legs_rest_length_is_checked(text: str, code: str, message: str) -> None:
+    with pytest.raises(ExprError) as caught:
+        compile_quantity(text, Scale.of(DOG_HP, DOG_KG), TIME)
+    assert caught.value.code == code
+    assert message in f"{caught.value.message} {caught.value.hint}"
+
+
 def test_strengths_scale_with_real_animals() -> None:
     from quadpipe.animals.library import load_animal
 

@@ -143,6 +143,9 @@ NEUTRAL_TUNABLES = {
     "hind_loading_flex": "10 deg",
     "front_trailing_floor": "0.5",
     "hind_trailing_floor": "0.5",
+    "front_loading_shortening": "0.05",
+    "hind_loading_shortening": "0.05",
+    "front_loading_shoulder": "1",
 }
 """`locomotion` tunables whose default keeps the gaits as they were, each with a value that
 acts: at their default (the base's own) they must cost the gaits that leave them there no

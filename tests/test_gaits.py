@@ -768,6 +768,25 @@ def test_a_leg_that_gives_as_it_takes_the_weight_keeps_the_dogs_feet_down_as_lon
     assert max(phase_errors(trial.gait, GAIT_PHASES["walk"]).values()) <= PHASE_TOLERANCE, describe(trial.gait)
 
 
+FORE_LOADING_BY_LENGTH = {"front_loading_shortening": "0.05", "front_trailing_floor": "1", "hind_trailing_floor": "1"}
+"""The fore legs shortened by 5 % of their rest length as they take the weight (walkflex;
+docs/gaits.md, "A loading flex by length"): not shipped, as the elbow closes 16-25 degrees."""
+
+FORE_DUTY_BY_LENGTH = 0.58
+"""The horse's fore feet are down at least this share of the cycle with `FORE_LOADING_BY_LENGTH`
+(measured 0.59-0.62; shipped 0.55, and 0.52 with the 10 degrees of `WALK_LOADING`'s fore flex)."""
+
+
+@pytest.mark.slow
+def test_a_loading_flex_asked_as_a_length_keeps_the_horses_straight_fore_legs_down_longer():
+    """An angle shortens a straight leg little: 10 degrees of elbow kept the dog's fore feet down
+    longer and lifted the horse's earlier. Asked as a share of the leg's rest length, turned into
+    an angle by the leg's own geometry, the same flex keeps the horse's fore feet down longer too."""
+    trial = measure("horse", "walk", **FORE_LOADING_BY_LENGTH)
+    assert min(trial.gait.legs[leg].duty_factor for leg in ("lf", "rf")) >= FORE_DUTY_BY_LENGTH, describe(trial.gait)
+    assert max(phase_errors(trial.gait, GAIT_PHASES["walk"]).values()) <= PHASE_TOLERANCE, describe(trial.gait)
+
+
 # --------------------------------------------------------------------------- head and tail carriage (#13)
 
 MAX_HEAD_DROP_HP = 0.15

@@ -36,6 +36,7 @@ from quadpipe.quantities.nodes import (
     CONDITION,
     CONSTANTS,
     LEG_LANDMARKS,
+    LEG_REST_LENGTH,
     NUMBER,
     POINT_ANCHORS,
     POINT_TYPE,
@@ -50,6 +51,7 @@ from quadpipe.quantities.nodes import (
     limit_error,
     nesting_depth,
     point_key,
+    rest_distance_key,
 )
 from quadpipe.quantities.parsing import parse
 
@@ -152,6 +154,8 @@ class _Checker:
 
     def _attribute(self, node: ast.Attribute) -> Expr:
         base = node.value
+        if isinstance(base, ast.Name) and base.id in LEGS and node.attr == LEG_REST_LENGTH:
+            return leg_rest_length(base.id)
         if isinstance(base, ast.Name) and (base.id in PARENT or base.id in LEGS):
             return Expr("var", POINT_TYPE, value=point_key(resolve_point_name(f"{base.id}.{node.attr}")))
         inner = self.check(base)
@@ -462,6 +466,12 @@ def _zeros_take_unit(items: Sequence[Expr]) -> list[Expr]:
     return [Expr("num", Type(SCALAR, dim), value=0.0) if _is_plain_zero(item) else item for item in items]
 
 
+def leg_rest_length(leg: str) -> Expr:
+    """`<leg>.rest_length`: the rest-pose distance from the leg's top to its foot (a length)."""
+    ends = (resolve_point_name(f"{leg}.{landmark}") for landmark in ("top", "foot"))
+    return Expr("var", Type(SCALAR, units.LENGTH), value=rest_distance_key(*ends))
+
+
 def resolve_point_name(text: str) -> str:
     """Turn a body point into its canonical `role.anchor` form.
 
@@ -475,8 +485,8 @@ def resolve_point_name(text: str) -> str:
         if anchor not in LEG_LANDMARKS:
             raise ExprError(
                 "bad-point",
-                f"{text!r}: a leg has the points .top and .foot",
-                did_you_mean(anchor, LEG_LANDMARKS, listing=False) or None,
+                f"{text!r}: a leg has the points .top and .foot (and the length .{LEG_REST_LENGTH})",
+                did_you_mean(anchor, [*LEG_LANDMARKS, LEG_REST_LENGTH], listing=False) or None,
             )
         return f"{base}_{LEG_LANDMARKS[anchor][base.endswith('f')]}"
     if base not in PARENT:

@@ -29,6 +29,10 @@ LEG_LANDMARKS: dict[str, dict[bool, str]] = {
 """Leg points usable on every leg: `<leg>.top` (where the leg meets the trunk) and
 `<leg>.foot` (the tip of the toes); keyed by landmark, then by "is a front leg"."""
 
+LEG_REST_LENGTH = "rest_length"
+"""A leg's length usable on every leg: `<leg>.rest_length`, the distance from `<leg>.top` to
+`<leg>.foot` in the rest pose (a length, known before the simulation, one per animal)."""
+
 COMPONENTS: dict[str, int] = {"x": 0, "y": 1, "z": 2}
 """Vector components: `v.x` (forward in the body frame), `v.y` (left), `v.z` (up)."""
 

@@ -48,6 +48,7 @@ from quadpipe.quantities.expressions import (
     CONSTANTS,
     FUNCTIONS,
     LEG_LANDMARKS,
+    LEG_REST_LENGTH,
     LOCAL_HELP,
     POINT_ANCHORS,
     TIME_VARIABLE,
@@ -208,7 +209,11 @@ def _points_text() -> str:
     ]
     return (
         f"A body point is a role with an anchor: {anchors} (its proximal joint, its far end, halfway); "
-        "a bare role means `.start`. A force at a point acts on that role's bone.\n\n" + "\n".join(rows) + "\n"
+        "a bare role means `.start`. A force at a point acts on that role's bone.\n\n"
+        + "\n".join(rows)
+        + f"\n\n`<leg>.{LEG_REST_LENGTH}` is a length, not a point: the distance from `<leg>.top` to `<leg>.foot` "
+        "in the rest pose, one per animal, known before the simulation (the `rest` of a segment between them), "
+        "for parameters that ask for a share of a leg's length.\n"
     )
 
 
