@@ -119,6 +119,8 @@ NEUTRAL_TUNABLES = {
     "hind_loading_flex": "10 deg",
     "front_trailing_floor": "0.5",
     "hind_trailing_floor": "0.5",
+    "stance_tracking": "0.5",
+    "traction": "0.5",
 }
 """`locomotion` tunables whose default keeps the gaits as they were, each with a value that
 acts: at their default (the base's own) they must cost the gaits that leave them there no
