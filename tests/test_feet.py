@@ -225,3 +225,34 @@ def test_a_swinging_foot_brought_down_along_its_approach_lands_slower_and_shallo
     assert None not in speeds and None not in depths, "no landing measured"
     assert speeds[1] <= SLOWER_TOUCHDOWN * speeds[0], speeds
     assert depths[1] <= SHALLOWER_LANDING * depths[0], depths
+
+
+TRACKED = {"stance_tracking": "1", "stance_from_landing": "1"}
+"""A stance foot's path from where it landed, swept at the trunk's own speed (trotfeet3;
+docs/gaits.md, "Planted feet at the trot")."""
+
+CLEANER_TRACKED_LIFT = 0.6
+"""`TRACKED` leaves at most this fraction of the dog's trotting toe drag (measured 6.4 -> 2.7 % HP)."""
+
+
+@pytest.mark.slow
+def test_a_stance_path_at_the_trunks_speed_lets_the_trotting_toe_lift_cleanly():
+    shipped = measured_gait("dog", "trot").posture.worst("toe_drag_max_hp")
+    tracked = measure("dog", "trot", **TRACKED).posture.worst("toe_drag_max_hp")
+    assert shipped is not None and tracked is not None, "no complete stance measured"
+    assert tracked <= CLEANER_TRACKED_LIFT * shipped, (shipped, tracked)
+
+
+TRACTION = "0.5"
+"""`traction`: a stance foot pushed along the ground at most half its leg's share of the weight."""
+
+CLEANER_TRACTION_LIFT = 0.75
+"""`TRACTION` leaves at most this fraction of the bear's trotting toe drag (measured 23.3 -> 13.7 % HP)."""
+
+
+@pytest.mark.slow
+def test_a_push_limited_by_the_legs_load_drags_the_bears_trotting_toes_less():
+    shipped = measured_gait("bear", "trot").posture.worst("toe_drag_max_hp")
+    limited = measure("bear", "trot", traction=TRACTION).posture.worst("toe_drag_max_hp")
+    assert shipped is not None and limited is not None, "no complete stance measured"
+    assert limited <= CLEANER_TRACTION_LIFT * shipped, (shipped, limited)
