@@ -625,7 +625,7 @@ Schaub 2021; amplitude about half)."""
 
 
 STANCE_SHAPE_SHORTFALLS = {
-    ("bear", "trot"): "the carpus flexes 14.6 deg in stance (5 allowed)",
+    ("bear", "trot"): "the carpus flexes 14.7 deg in stance (5 allowed)",
     ("rat", "trot"): "the carpus flexes 5.3 deg in stance (5 allowed)",
 }
 """Measured where the trot's landings still buckle a fore leg's carpus: the stance springs
