@@ -436,14 +436,20 @@ def repertoire_place(animal: Animal, name: str) -> Location | None:
     return places.get(name, animal.gaits_at)
 
 
+def mixed_carriage(animals: Sequence[Animal]) -> set[str]:
+    """The carriage parameters (`CARRIAGE_PARAMETERS`) the animals' species offer different
+    values of: one controller runs them all, so it keeps its own value of each."""
+    offers = [repertoire_parameters(animal) for animal in animals]
+    return {name for name in CARRIAGE_PARAMETERS if len({offer[name] for offer in offers}) > 1}
+
+
 def carriage_warning(animals: Sequence[Animal]) -> Issue | None:
-    """A warning when the animals' species carry their tails differently (`tail_lift_deg`):
-    one controller runs them all, so their tails keep their rest shapes (None otherwise)."""
-    lifts = {animal.name: animal.tail_lift_deg for animal in animals}
-    if len(set(lifts.values())) < 2:
+    """A warning when the animals' species carry their tails differently (`mixed_carriage`):
+    their tails keep their rest shapes (None otherwise)."""
+    if not mixed_carriage(animals):
         return None
     odd = next(animal for animal in animals if animal.tail_lift_deg != animals[0].tail_lift_deg)
-    listed = ", ".join(f"{name} {lift:g} deg" for name, lift in lifts.items())
+    listed = ", ".join(f"{animal.name} {animal.tail_lift_deg:g} deg" for animal in animals)
     return Issue(
         "mixed-carriage",
         f"the animals' species carry their tails differently ({listed}); one controller runs them all, "

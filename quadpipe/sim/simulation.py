@@ -222,7 +222,7 @@ class Simulation:
         offered = self.setup.goal_parameters | dict(goals or {})
         places = self.setup.goal_places() | dict(places or {})
         compiled = compile_for(controller, self.placements, parameters, scene_parameters=offered, places=places)
-        self._warn_of_gaits(compiled[0].name)
+        self._warn_of_gaits(compiled[0])
         return compiled
 
     def compile_groups(
@@ -246,7 +246,7 @@ class Simulation:
             (group, compile_for(controller, group, parameters, scene_parameters=offered, places=places)[0])
             for group, offered in self.setup.parameter_groups()
         ]
-        self._warn_of_gaits(groups[0][1].name)
+        self._warn_of_gaits(groups[0][1])
         return groups
 
     def use_groups(self, groups: Sequence[tuple[list[Placement], CompiledController]]) -> None:
@@ -266,16 +266,19 @@ class Simulation:
             runtime.release()
         self._runtimes, self._groups = [], []
 
-    def _warn_of_gaits(self, controller: str) -> None:
-        """Keep a warning, once per species, when `controller` is a gait the species does not
-        use (`gait_warning`), and once when their species carry their tails differently
-        (`carriage_warning`): in `warnings` and in the clips' metadata."""
-        from quadpipe.animals.library import TAIL_LIFT_PARAMETER, carriage_warning, gait_warning
-        from quadpipe.controllers.runtime.runtime import declared_parameters
+    def _warn_of_gaits(self, compiled: CompiledController) -> None:
+        """Keep a warning, once per species, when the controller is a gait the species does not
+        use (`gait_warning`), and once when their species carry their tails differently where
+        it carries a tail (`carriage_warning`): in `warnings` and in the clips' metadata."""
+        from quadpipe.animals.library import CARRIAGE_PARAMETERS, carriage_warning, gait_warning
 
         animals = [placement.built.animal for placement in self.placements]
-        carriage = carriage_warning(animals) if TAIL_LIFT_PARAMETER in declared_parameters(controller) else None
-        for issue in [*(gait_warning(animal, controller) for animal in animals), carriage]:
+        carries = not CARRIAGE_PARAMETERS.isdisjoint(compiled.parameters)
+        issues = [
+            *(gait_warning(animal, compiled.name) for animal in animals),
+            carriage_warning(animals) if carries else None,
+        ]
+        for issue in issues:
             if issue is not None and issue not in self.warnings:
                 self.warnings.append(issue)
         if self.warnings:

@@ -33,7 +33,7 @@ import numba
 import numpy as np
 
 from quadpipe.anatomy.roles import FOOT_BONES, JOINT_AXES, LEGS, ROLES
-from quadpipe.animals.library import CARRIAGE_PARAMETERS, repertoire_parameters, repertoire_place
+from quadpipe.animals.library import mixed_carriage, repertoire_parameters, repertoire_place
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
 from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.language.loader import CONTROLLER_KIND, merge_controller
@@ -541,23 +541,20 @@ def declared_parameters(controller: str) -> set[str]:
 def _species_offers(placements: Sequence[Placement], declared: set[str]) -> tuple[dict[str, str], dict[str, Location]]:
     """The repertoire parameters the animals' species offer among `declared`, and where each
     was written (the animal config's `gaits:`). A carriage parameter the species disagree on
-    (`CARRIAGE_PARAMETERS`) is not offered: the controller keeps its own value.
+    (`mixed_carriage`) is not offered: the controller keeps its own value.
 
     Raises:
         QuadpipeError: `mixed-repertoires` when two species offer different values of one.
     """
     values: dict[str, str] = {}
     places: dict[str, Location] = {}
-    mixed: set[str] = set()
+    offered = declared - mixed_carriage([placement.built.animal for placement in placements])
     for placement in placements:
         animal = placement.built.animal
         for name, value in repertoire_parameters(animal).items():
-            if name not in declared:
+            if name not in offered:
                 continue
             if values.setdefault(name, value) != value:
-                if name in CARRIAGE_PARAMETERS:
-                    mixed.add(name)
-                    continue
                 raise QuadpipeError.single(
                     "mixed-repertoires",
                     f"the animals' species set {name} to {values[name]} and {value} ({animal.name}); "
@@ -568,6 +565,4 @@ def _species_offers(placements: Sequence[Placement], declared: set[str]) -> tupl
             place = repertoire_place(animal, name)
             if place is not None:
                 places[name] = place
-    return {name: value for name, value in values.items() if name not in mixed}, {
-        name: place for name, place in places.items() if name not in mixed
-    }
+    return values, places
