@@ -22,7 +22,7 @@ from quadpipe.world.loading import SceneSpec, entry_names, is_path
 from quadpipe.world.placement import Placement, attach_animals, world_spec
 from quadpipe.world.props import PropStart, add_props
 from quadpipe.world.terrain import add_terrain
-from quadpipe.world.throws import ANCHOR_FRACTIONS, ThrowEvent, ThrowPlan, add_thrown, plan_throws
+from quadpipe.world.throws import ThrowEvent, ThrowPlan, add_thrown, plan_throws, point_on_bone
 from quadpipe.world.timeline import Timeline
 from quadpipe.world.values import Values
 
@@ -85,10 +85,8 @@ class SceneSetup:
     def _point_offset(self, plan: ThrowPlan) -> tuple[str, np.ndarray]:
         """The target's body and the point's offset from that body's origin, in the body frame."""
         placement = next(p for p in self.placements if p.name == plan.animal)
-        role, anchor = plan.point.split(".")
-        bone = placement.built.animal.skeleton.bones[role]
-        fraction = ANCHOR_FRACTIONS[anchor]
-        return f"{plan.animal}/{role}", fraction * (np.asarray(bone.end) - np.asarray(bone.start))
+        role, offset = point_on_bone(placement.built.animal.skeleton, plan.point)
+        return f"{plan.animal}/{role}", offset
 
 
 @dataclass(frozen=True)

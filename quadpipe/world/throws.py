@@ -244,13 +244,20 @@ def _aim(
     return float(distance), flight, speed
 
 
+def point_on_bone(skeleton: Skeleton, point: str) -> tuple[str, np.ndarray]:
+    """The bone of a body point (`thorax.mid`) and the point's offset from the bone's joint,
+    in the rest pose (the bone's body frame), metres."""
+    role, anchor = point.split(".")
+    bone = skeleton[role]
+    return role, ANCHOR_FRACTIONS[anchor] * (np.asarray(bone.end) - np.asarray(bone.start))
+
+
 def clear_distance(skeleton: Skeleton, point: str, direction: np.ndarray, corridor: float) -> float:
     """How far the animal's rest pose reaches from its target `point` (`thorax.mid`) toward
     `direction` (its heading frame, x forward), metres: the farthest point of its bones that
     way within `corridor` metres of the line the object comes along."""
-    role, anchor = point.split(".")
-    bone = skeleton[role]
-    target = bone.start + ANCHOR_FRACTIONS[anchor] * (bone.end - bone.start)
+    role, offset = point_on_bone(skeleton, point)
+    target = skeleton[role].start + offset
     along = np.linspace(0.0, 1.0, BONE_SAMPLES)[:, None]
     points = np.concatenate([bone.start + along * (bone.end - bone.start) for bone in skeleton.bones.values()])
     offsets = points - target
