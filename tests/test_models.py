@@ -130,7 +130,7 @@ def test_clamped_radius_never_exceeds_a_neighbour():
 
 @pytest.mark.parametrize(
     ("hp", "steps", "tau"),
-    [(0.6556, 1, 0.0204), (0.0254, 5, 0.00402), (0.2793, 2, 0.0133), (2.9982, 1, 0.0437)],
+    [(0.6556, 4, 0.00517), (0.0254, 17, 0.00102), (0.2793, 5, 0.00337), (2.9982, 2, 0.01106)],
 )
 def test_size_rules(hp, steps, tau):
     assert sizing.substeps(hp) == steps
