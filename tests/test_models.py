@@ -136,6 +136,7 @@ def test_size_rules(hp, steps, tau):
     assert sizing.substeps(hp) == steps
     assert sizing.constraint_time_constant(hp) == pytest.approx(tau, rel=0.01)
     assert sizing.constraint_time_constant(hp) >= 2 * sizing.timestep(hp)
+    assert sizing.joint_limit_time_constant(hp) == pytest.approx(3.95 * sizing.constraint_time_constant(hp))
 
 
 def test_the_animal_model_has_no_floor_and_the_world_adds_one():

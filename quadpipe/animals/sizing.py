@@ -4,7 +4,7 @@ One rule per quantity, each a small function of the pelvis height HP (metres):
 
 - **Bone radius** (thesis §3.1): `HP/75 + 0.1 cm`, and never larger than the bone's own length
   or a neighbour's.
-- **Contact and joint-limit softness**: MuJoCo's soft constraints behave like a spring-damper
+- **Contact softness**: MuJoCo's soft constraints behave like a spring-damper
   with time constant `tau`; a body resting on them sinks about `g * tau^2`, and a foot landing
   at speed v goes about `v * tau / e` deep. A fixed `tau` would let a rat sink through its own
   bones while an elephant barely notices, so `tau` follows the animal's natural time
@@ -14,6 +14,10 @@ One rule per quantity, each a small function of the pelvis height HP (metres):
   0.02 s for the thesis's dog) let it go 6 % HP deep and spring back out of the floor, so
   planted feet skated (docs/gaits.md, "A stiff contact"). That is 5.2 ms for the dog, 1.0 ms for
   the rat, 11 ms for the elephant.
+- **Joint-limit softness**: the joint limits stand for ligaments and joint capsules, which
+  give: their time constant stays the thesis-era `0.079 * sqrt(HP / g)` (MuJoCo's default
+  0.02 s for the thesis's dog). Stiff limits on a stiff floor made a dropped ragdoll prop
+  itself up on locked joints and creep for seconds before it toppled.
 - **Impedance**: `solimp` (0.95, 0.99, width) instead of MuJoCo's (0.9, 0.95, 1 mm): stiffer
   constraints; the width over which impedance ramps up is 1 mm for the dog, scaled with HP.
 - **Time step**: MuJoCo needs `tau >= 2 * timestep` for its constraints to stay stable, so the
@@ -37,6 +41,9 @@ RADIUS_OFFSET_M = 0.001
 
 SOFTNESS_PER_NATURAL_TIME = 0.02
 """Constraint time constant as a fraction of sqrt(HP/g) (5.2 ms for the thesis's dog)."""
+
+LIMIT_SOFTNESS_PER_NATURAL_TIME = 0.079
+"""Joint-limit time constant as a fraction of sqrt(HP/g) (0.02 s for the thesis's dog)."""
 
 FRAME_STEP_S = 1.0 / 120.0
 """The thesis's fixed physics step: 1/120 s, 4 steps per 30 fps frame."""
@@ -81,8 +88,13 @@ def natural_time(pelvis_height: float) -> float:
 
 
 def constraint_time_constant(pelvis_height: float) -> float:
-    """MuJoCo `solref` time constant for contacts and joint limits, in seconds."""
+    """MuJoCo `solref` time constant for contacts, in seconds: the stiffest constraint."""
     return SOFTNESS_PER_NATURAL_TIME * natural_time(pelvis_height)
+
+
+def joint_limit_time_constant(pelvis_height: float) -> float:
+    """MuJoCo `solref` time constant for joint limits, in seconds."""
+    return LIMIT_SOFTNESS_PER_NATURAL_TIME * natural_time(pelvis_height)
 
 
 def substeps(pelvis_height: float) -> int:
