@@ -912,10 +912,6 @@ FAST_POSTURE_PELVIS = MIN_PELVIS_HEIGHT_RATIO["trot"]
 """The trot's trunk bands (the issue gives bands for the walk and the trot only)."""
 
 FAST_STANCE_SHORTFALLS: dict[tuple[str, str], str] = {
-    ("cat", "pace"): "the carpus closes 8.9 deg in stance",
-    ("elephant", "pace"): "the carpus closes 10.1 deg in stance",
-    ("lion", "pace"): "the elbow closes 16.9 deg, the carpus closes 15.4 deg in stance",
-    ("rat", "pace"): "the carpus closes 24.0 deg in stance",
     ("bear", "bound"): "the elbow closes 30.2 deg, the knee closes 20.2 deg, the hock closes 16.1 deg in stance",
     ("cat", "bound"): "the knee closes 16.1 deg, the hock closes 15.7 deg in stance",
     ("dog", "bound"): "the knee closes 22.0 deg, the hock closes 23.1 deg, the carpus closes 5.5 deg in stance",
