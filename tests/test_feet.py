@@ -45,9 +45,6 @@ SHORTFALLS: dict[str, dict[tuple[str, str], str]] = {
         ("rat", "trot"): "a foot slides 14.7 % HP in a stance",
     },
     "drag": {
-        ("horse", "walk"): "a toe travels 3.5 % HP along the ground before lift-off",
-        ("pig", "walk"): "a toe travels 3.7 % HP along the ground before lift-off",
-        ("rat", "walk"): "a toe travels 6.5 % HP along the ground before lift-off",
         ("bear", "trot"): "a toe travels 3.3 % HP along the ground before lift-off",
         ("cow", "trot"): "a toe travels 3.2 % HP along the ground before lift-off",
         ("goat", "trot"): "a toe travels 3.4 % HP along the ground before lift-off",
