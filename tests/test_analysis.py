@@ -501,10 +501,10 @@ def test_a_frame_rate_that_does_not_divide_the_physics_rate_is_refused_before_an
     )
     assert result.returncode == 1 and "Traceback" not in result.stderr
     assert (
-        "error bad-fps: 50 frames per second does not divide this simulation's 120 physics steps per second"
+        "error bad-fps: 50 frames per second does not divide this simulation's 480 physics steps per second"
         in result.stderr
     )
-    assert "record at one of 10, 12, 15, 20, 24, 30, 40, 60, 120 fps" in result.stderr
+    assert "record at one of 10, 12, 15, 16, 20, 24, 30, 32, 40, 48, 60, 80, 96, 120, 160, 240, 480 fps" in result.stderr
     assert list(tmp_path.iterdir()) == []
 
 

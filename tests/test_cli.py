@@ -52,7 +52,7 @@ def test_animals_lists_every_animal_with_its_size():
     rows = {row["name"]: row for row in json.loads(result.stdout)}
     assert set(rows) == set(configs.available("animals"))
     assert rows["dog"]["hp_cm"] == 65.56 and rows["dog"]["bones"] == 39
-    assert rows["rat"]["timestep_s"] == pytest.approx(1 / 600)
+    assert rows["rat"]["timestep_s"] == pytest.approx(1 / 2040)  # 1/120 s in 17 substeps
 
 
 def test_inspect_reports_bones_masses_and_limits():
@@ -71,7 +71,8 @@ def test_convert_writes_mjcf_that_mujoco_loads(tmp_path):
     assert result.returncode == 0, result.stderr
     model = mujoco.MjModel.from_xml_path(str(target))
     assert model.body("dog/pelvis").id > 0 and model.geom("floor").id >= 0
-    assert model.opt.timestep == pytest.approx(1 / 120) and model.opt.iterations == 32
+    # MuJoCo writes the step with 6 significant digits (0.00208333)
+    assert model.opt.timestep == pytest.approx(1 / 480, rel=1e-5) and model.opt.iterations == 32
 
 
 def test_convert_from_a_bare_skeleton_file(tmp_path):

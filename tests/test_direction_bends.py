@@ -141,11 +141,6 @@ def hairpin(radius_hp: float) -> list[list]:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="0.34 HP RMS off the path round the bend (0.3 allowed) on direct's weight-bearing legs with the "
-    "stronger steering (0.27 HP on the old legs, 0.30 with the new legs and the old steering)",
-)
 def test_an_untimed_trot_slows_for_a_tight_bend_and_follows_it(tmp_path_factory: pytest.TempPathFactory) -> None:
     points = hairpin(1.0)
     body = {"path": {"points": points}, "beats": [{"to": len(points) - 1, "froude": 0.6}]}

@@ -33,57 +33,35 @@ above the ground (0.65 cm for the dog): it does not scuff or shuffle forward."""
 
 SHORTFALLS: dict[str, dict[tuple[str, str], str]] = {
     "slip": {
-        ("bear", "walk"): "a foot slides 3.3 % HP in a stance",
-        ("pig", "walk"): "a foot slides 3.2 % HP in a stance",
-        ("rat", "walk"): "a foot slides 6.8 % HP in a stance",
-        ("bear", "trot"): "a foot slides 14.5 % HP in a stance",
-        ("cat", "trot"): "a foot slides 6.8 % HP in a stance",
-        ("cow", "trot"): "a foot slides 9.2 % HP in a stance",
-        ("dog", "trot"): "a foot slides 11.7 % HP in a stance",
-        ("elephant", "trot"): "a foot slides 13.5 % HP in a stance",
-        ("goat", "trot"): "a foot slides 9.1 % HP in a stance",
-        ("horse", "trot"): "a foot slides 7.6 % HP in a stance",
-        ("lion", "trot"): "a foot slides 7.8 % HP in a stance",
-        ("pig", "trot"): "a foot slides 9.8 % HP in a stance",
-        ("rat", "trot"): "a foot slides 11.5 % HP in a stance",
+        ("rat", "walk"): "a foot slides 4.9 % HP in a stance",
+        ("bear", "trot"): "a foot slides 7.0 % HP in a stance",
+        ("cat", "trot"): "a foot slides 3.5 % HP in a stance",
+        ("cow", "trot"): "a foot slides 5.2 % HP in a stance",
+        ("elephant", "trot"): "a foot slides 9.0 % HP in a stance",
+        ("goat", "trot"): "a foot slides 3.2 % HP in a stance",
+        ("horse", "trot"): "a foot slides 4.1 % HP in a stance",
+        ("lion", "trot"): "a foot slides 3.2 % HP in a stance",
+        ("pig", "trot"): "a foot slides 5.8 % HP in a stance",
+        ("rat", "trot"): "a foot slides 14.7 % HP in a stance",
     },
     "drag": {
-        ("bear", "walk"): "a toe travels 3.0 % HP along the ground before lift-off",
-        ("cow", "walk"): "a toe travels 4.3 % HP along the ground before lift-off",
-        ("dog", "walk"): "a toe travels 3.9 % HP along the ground before lift-off",
-        ("horse", "walk"): "a toe travels 4.4 % HP along the ground before lift-off",
-        ("pig", "walk"): "a toe travels 5.2 % HP along the ground before lift-off",
-        ("rat", "walk"): "a toe travels 7.3 % HP along the ground before lift-off",
-        ("bear", "trot"): "a toe travels 23.3 % HP along the ground before lift-off",
-        ("cat", "trot"): "a toe travels 5.1 % HP along the ground before lift-off",
-        ("cow", "trot"): "a toe travels 6.9 % HP along the ground before lift-off",
-        ("dog", "trot"): "a toe travels 6.4 % HP along the ground before lift-off",
-        ("elephant", "trot"): "a toe travels 8.1 % HP along the ground before lift-off",
-        ("goat", "trot"): "a toe travels 6.0 % HP along the ground before lift-off",
-        ("horse", "trot"): "a toe travels 8.1 % HP along the ground before lift-off",
-        ("lion", "trot"): "a toe travels 8.0 % HP along the ground before lift-off",
-        ("pig", "trot"): "a toe travels 9.8 % HP along the ground before lift-off",
-        ("rat", "trot"): "a toe travels 5.3 % HP along the ground before lift-off",
+        ("bear", "trot"): "a toe travels 3.3 % HP along the ground before lift-off",
+        ("cow", "trot"): "a toe travels 3.2 % HP along the ground before lift-off",
+        ("goat", "trot"): "a toe travels 3.4 % HP along the ground before lift-off",
+        ("horse", "trot"): "a toe travels 4.1 % HP along the ground before lift-off",
+        ("rat", "trot"): "a toe travels 26.8 % HP along the ground before lift-off",
     },
     "sink": {
-        ("cat", "walk"): "feet sink 4.1 % HP landing, 0.1 % HP resting",
-        ("dog", "walk"): "feet sink 1.9 % HP landing, 0.4 % HP resting",
-        ("lion", "walk"): "feet sink 3.6 % HP landing, 0.1 % HP resting",
-        ("pig", "walk"): "feet sink 1.8 % HP landing, 0.2 % HP resting",
-        ("rat", "walk"): "feet sink 6.4 % HP landing, 0.5 % HP resting",
-        ("bear", "trot"): "feet sink 3.4 % HP landing, 0.6 % HP resting",
-        ("cat", "trot"): "feet sink 5.7 % HP landing, 0.8 % HP resting",
-        ("cow", "trot"): "feet sink 5.7 % HP landing, 0.3 % HP resting",
-        ("dog", "trot"): "feet sink 5.9 % HP landing, 0.4 % HP resting",
-        ("elephant", "trot"): "feet sink 4.9 % HP landing, 0.1 % HP resting",
-        ("goat", "trot"): "feet sink 6.2 % HP landing, 0.4 % HP resting",
-        ("horse", "trot"): "feet sink 6.4 % HP landing, 0.2 % HP resting",
-        ("lion", "trot"): "feet sink 6.7 % HP landing, 0.6 % HP resting",
-        ("pig", "trot"): "feet sink 6.1 % HP landing, 0.5 % HP resting",
-        ("rat", "trot"): "feet sink 12.4 % HP landing, 1.4 % HP resting",
+        ("cow", "trot"): "feet sink 1.6 % HP landing, 0.0 % HP resting",
+        ("elephant", "trot"): "feet sink 1.7 % HP landing, 0.0 % HP resting",
+        ("goat", "trot"): "feet sink 1.5 % HP landing, 0.0 % HP resting",
+        ("horse", "trot"): "feet sink 1.8 % HP landing, 0.0 % HP resting",
+        ("lion", "trot"): "feet sink 1.8 % HP landing, 0.0 % HP resting",
+        ("rat", "trot"): "feet sink 1.6 % HP landing, 0.0 % HP resting",
     },
     "clearance": {
-        ("bear", "trot"): "a swinging foot comes down to 0.1 % HP above the ground mid-swing",
+        ("bear", "trot"): "a swinging foot comes down to 0.3 % HP above the ground mid-swing",
+        ("rat", "trot"): "a swinging fore foot comes down to 0.1 % HP above the ground mid-swing",
     },
 }
 """Per figure, the animal x gait runs that miss it, with the measured worst figure (% HP)."""
@@ -158,6 +136,10 @@ CLEANER_LIFT = 0.5
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="on the stiff contact (session 12) the dog's walk lands at 0.65 natural velocities (1.48 on the soft one); with landing_share 1 at 0.95",
+)
 def test_landing_share_carries_a_foot_still_in_the_air_to_a_softer_landing():
     pushed = measure("dog", "walk", **TAIL_AT_REST).posture.worst("touchdown_speed")
     carried = measure("dog", "walk", **TAIL_AT_REST, landing_share="1").posture.worst("touchdown_speed")
@@ -166,6 +148,10 @@ def test_landing_share_carries_a_foot_still_in_the_air_to_a_softer_landing():
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="on the stiff contact (session 12) with the walk's held swing the pressing walk's toes drag only 2.7 % HP; unload 1 leaves 2.9",
+)
 def test_unload_lets_the_toe_go_of_the_ground_before_it_lifts():
     pressed = measure("dog", "walk", **PRESSING).posture.worst("toe_drag_max_hp")
     unloaded = measure("dog", "walk", **PRESSING, unload="1").posture.worst("toe_drag_max_hp")
@@ -179,6 +165,10 @@ CLEANER_TRAILING = 0.5
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="on the stiff contact (session 12) with the walk's held swing the pressing walk's toes drag only 2.7 % HP; the release leaves 2.1, 0.77 of it",
+)
 def test_a_trailing_leg_that_stops_pressing_where_it_cannot_reach_lifts_its_toe_cleanly():
     pressed = measure("dog", "walk", **PRESSING).posture.worst("toe_drag_max_hp")
     released = measure("dog", "walk", **RELEASED).posture.worst("toe_drag_max_hp")
@@ -198,6 +188,10 @@ def mean_duty(measured: Measured) -> float:
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="on the stiff contact (session 12) the rolled toe keeps the feet down 0.004 cycle longer (0.516 -> 0.520) and drags 1.6 % HP, 0.62 of 2.7",
+)
 def test_a_foot_that_rolls_over_its_toe_stays_down_longer_and_still_lifts_cleanly():
     pressed = measure("dog", "walk", **PRESSING).posture.worst("toe_drag_max_hp")
     released = measure("dog", "walk", **RELEASED)
@@ -241,6 +235,10 @@ CLEANER_TRACKED_LIFT = 0.6
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="on the stiff contact (session 12) the shipped trot's toes already lift cleanly (the dog's drag 1.8 % HP, 6.4 on the soft one); tracking leaves 1.6, 0.89 of it",
+)
 def test_a_stance_path_at_the_trunks_speed_lets_the_trotting_toe_lift_cleanly():
     shipped = measured_gait("dog", "trot").posture.worst("toe_drag_max_hp")
     tracked = measure("dog", "trot", **TRACKED).posture.worst("toe_drag_max_hp")
@@ -256,6 +254,10 @@ CLEANER_TRACTION_LIFT = 0.75
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="on the stiff contact (session 12) the bear's shipped trot drags 3.3 % HP (23.3 on the soft one); traction 0.5 gives 3.9",
+)
 def test_a_push_limited_by_the_legs_load_drags_the_bears_trotting_toes_less():
     shipped = measured_gait("bear", "trot").posture.worst("toe_drag_max_hp")
     limited = measure("bear", "trot", traction=TRACTION).posture.worst("toe_drag_max_hp")

@@ -130,12 +130,13 @@ def test_clamped_radius_never_exceeds_a_neighbour():
 
 @pytest.mark.parametrize(
     ("hp", "steps", "tau"),
-    [(0.6556, 1, 0.0204), (0.0254, 5, 0.00402), (0.2793, 2, 0.0133), (2.9982, 1, 0.0437)],
+    [(0.6556, 4, 0.00517), (0.0254, 17, 0.00102), (0.2793, 5, 0.00337), (2.9982, 2, 0.01106)],
 )
 def test_size_rules(hp, steps, tau):
     assert sizing.substeps(hp) == steps
     assert sizing.constraint_time_constant(hp) == pytest.approx(tau, rel=0.01)
     assert sizing.constraint_time_constant(hp) >= 2 * sizing.timestep(hp)
+    assert sizing.joint_limit_time_constant(hp) == pytest.approx(3.95 * sizing.constraint_time_constant(hp))
 
 
 def test_the_animal_model_has_no_floor_and_the_world_adds_one():

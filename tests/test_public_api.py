@@ -46,4 +46,4 @@ def test_the_docstring_example_simulates_exports_and_analyses(tmp_path) -> None:
     sim = quadpipe.Simulation.build("dog", "walk")
     for _ in range(12):
         sim.step()
-    assert sim.time == pytest.approx(12 * 1 / 120)
+    assert sim.time == pytest.approx(12 * 1 / 480)  # the dog steps at 1/480 s

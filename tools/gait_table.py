@@ -33,6 +33,8 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from quadpipe.clip.model import Clip
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's quadpipe, not an installed one
+
 SETTLE_NATURAL_TIMES = 8.0
 """Not measured at the start: the animal settles into its gait."""
 

@@ -85,7 +85,7 @@ class BuiltAnimal:
         radii: per-role capsule radius after clamping (boxes and head use the uniform one).
         masses: per-role mass in kg.
         timestep: the physics step this animal needs, seconds.
-        tau: contact and joint-limit time constant, seconds.
+        tau: contact time constant, seconds.
     """
 
     spec: mujoco.MjSpec
@@ -183,7 +183,7 @@ def _add_defaults(spec: mujoco.MjSpec, animal: Animal, tau: float) -> dict[str, 
     bone.geom.solimp = sizing.constraint_impedance(hp)
     bone.geom.friction = list(FRICTION)
     bone.joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
-    bone.joint.solref_limit = [tau, 1.0]
+    bone.joint.solref_limit = [sizing.joint_limit_time_constant(hp), 1.0]
     bone.joint.solimp_limit = sizing.constraint_impedance(hp)
     bone.joint.damping = [
         JOINT_DAMPING_PER_NATURAL_TIME * mass * sizing.GRAVITY * hp * sizing.natural_time(hp),

@@ -4,18 +4,26 @@ One rule per quantity, each a small function of the pelvis height HP (metres):
 
 - **Bone radius** (thesis §3.1): `HP/75 + 0.1 cm`, and never larger than the bone's own length
   or a neighbour's.
-- **Contact and joint-limit softness**: MuJoCo's soft constraints behave like a spring-damper
-  with time constant `tau`; a body resting on them sinks about `g * tau^2`. A fixed `tau` would
-  let a rat sink through its own bones while an elephant barely notices, so `tau` follows the
-  animal's natural time `sqrt(HP / g)`: `tau = 0.079 * sqrt(HP / g)`. That is MuJoCo's default
-  0.02 s for the thesis's dog, 0.004 s for the rat, 0.044 s for the elephant, and the resting
-  sink becomes the same fraction of HP for every animal (dynamic similarity).
+- **Contact softness**: MuJoCo's soft constraints behave like a spring-damper
+  with time constant `tau`; a body resting on them sinks about `g * tau^2`, and a foot landing
+  at speed v goes about `v * tau / e` deep. A fixed `tau` would let a rat sink through its own
+  bones while an elephant barely notices, so `tau` follows the animal's natural time
+  `sqrt(HP / g)`: `tau = 0.02 * sqrt(HP / g)` (dynamic similarity: every animal sinks the same
+  fraction of HP). 0.02 keeps a foot that lands at two natural velocities `sqrt(g HP)` (a
+  trot's touchdown) within 1.5 % HP of the floor (#13); the thesis-era 0.079 (MuJoCo's default
+  0.02 s for the thesis's dog) let it go 6 % HP deep and spring back out of the floor, so
+  planted feet skated (docs/gaits.md, "A stiff contact"). That is 5.2 ms for the dog, 1.0 ms for
+  the rat, 11 ms for the elephant.
+- **Joint-limit softness**: the joint limits stand for ligaments and joint capsules, which
+  give: their time constant stays the thesis-era `0.079 * sqrt(HP / g)` (MuJoCo's default
+  0.02 s for the thesis's dog). Stiff limits on a stiff floor made a dropped ragdoll prop
+  itself up on locked joints and creep for seconds before it toppled.
 - **Impedance**: `solimp` (0.95, 0.99, width) instead of MuJoCo's (0.9, 0.95, 1 mm): stiffer
-  constraints, so a standing dog rests 0.6 mm into the floor (6 % of its bone radius) rather
-  than 1.4 mm; the width over which impedance ramps up is 1 mm for the dog, scaled with HP.
+  constraints; the width over which impedance ramps up is 1 mm for the dog, scaled with HP.
 - **Time step**: MuJoCo needs `tau >= 2 * timestep` for its constraints to stay stable, so the
-  thesis's fixed 1/120 s step is split into as many equal substeps as that needs: one for the
-  dog and every larger animal, two for the cat, five (1/600 s) for the rat.
+  thesis's fixed 1/120 s step is split into as many equal substeps as that needs: two for the
+  elephant, three from the lion to the horse, four for the pig, the goat and the dog, five for
+  the cat, seventeen for the rat.
 """
 
 from __future__ import annotations
@@ -31,8 +39,11 @@ RADIUS_PER_HP = 1.0 / 75.0
 RADIUS_OFFSET_M = 0.001
 """Thesis radius rule, offset: + 0.1 cm."""
 
-SOFTNESS_PER_NATURAL_TIME = 0.079
-"""Constraint time constant as a fraction of sqrt(HP/g) (0.02 s for the thesis's dog)."""
+SOFTNESS_PER_NATURAL_TIME = 0.02
+"""Constraint time constant as a fraction of sqrt(HP/g) (5.2 ms for the thesis's dog)."""
+
+LIMIT_SOFTNESS_PER_NATURAL_TIME = 0.079
+"""Joint-limit time constant as a fraction of sqrt(HP/g) (0.02 s for the thesis's dog)."""
 
 FRAME_STEP_S = 1.0 / 120.0
 """The thesis's fixed physics step: 1/120 s, 4 steps per 30 fps frame."""
@@ -77,8 +88,13 @@ def natural_time(pelvis_height: float) -> float:
 
 
 def constraint_time_constant(pelvis_height: float) -> float:
-    """MuJoCo `solref` time constant for contacts and joint limits, in seconds."""
+    """MuJoCo `solref` time constant for contacts, in seconds: the stiffest constraint."""
     return SOFTNESS_PER_NATURAL_TIME * natural_time(pelvis_height)
+
+
+def joint_limit_time_constant(pelvis_height: float) -> float:
+    """MuJoCo `solref` time constant for joint limits, in seconds."""
+    return LIMIT_SOFTNESS_PER_NATURAL_TIME * natural_time(pelvis_height)
 
 
 def substeps(pelvis_height: float) -> int:
