@@ -504,7 +504,9 @@ def test_a_frame_rate_that_does_not_divide_the_physics_rate_is_refused_before_an
         "error bad-fps: 50 frames per second does not divide this simulation's 480 physics steps per second"
         in result.stderr
     )
-    assert "record at one of 10, 12, 15, 16, 20, 24, 30, 32, 40, 48, 60, 80, 96, 120, 160, 240, 480 fps" in result.stderr
+    assert (
+        "record at one of 10, 12, 15, 16, 20, 24, 30, 32, 40, 48, 60, 80, 96, 120, 160, 240, 480 fps" in result.stderr
+    )
     assert list(tmp_path.iterdir()) == []
 
 
