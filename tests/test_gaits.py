@@ -293,7 +293,7 @@ GALLOP_CLIP_S = 6.0
 def test_the_dogs_plain_gallop_clip_reads_as_its_rotary_gallop():
     """As an animator bakes it: `quadpipe simulate -a dog -c gallop`, 30 frames a second."""
     result = cached_simulation("dog", "gallop", GALLOP_CLIP_S)
-    gait = analyze_clip(result.clip).animals[0].gait
+    gait = analyze_clip(result.clip).animals[0]
     assert all(gait.legs[leg].duty_factor is not None for leg in roles.LEGS), describe(gait)
     assert gait.gait.name == "rotary gallop", describe(gait)
 
