@@ -15,6 +15,10 @@ import pytest
 REPO = Path(__file__).resolve().parent.parent
 FIXTURES = REPO / "tests" / "fixtures"
 
+os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))
+"""Every subprocess a test starts (the CLI, the benchmarks, the demo) imports this checkout's
+quadpipe, not whichever checkout the environment's editable install points at."""
+
 
 @functools.cache
 def built_animal(name: str):

@@ -179,8 +179,8 @@ MIN_PELVIS_HP = 0.7
 
 @functools.cache
 def walk_run(animal: str) -> Measured:
-    """20 s of `walk` on the flat scene (its goal 20 HP ahead): the gait measured from 8 to 28
-    natural times (before any animal reaches the goal), and the metrics of the whole run."""
+    """20 s of `walk` on the flat scene (its goal far ahead): the gait measured from 8 to 28
+    natural times, and the metrics of the whole run."""
     from quadpipe.sim.simulation import simulate
 
     time = own_time(animal)
