@@ -146,8 +146,6 @@ NEUTRAL_TUNABLES = {
     "front_loading_shortening": "0.05",
     "hind_loading_shortening": "0.05",
     "front_loading_shoulder": "1",
-    "stance_tracking": "0.5",
-    "traction": "0.5",
 }
 """`locomotion` tunables whose default keeps the gaits as they were, each with a value that
 acts: at their default (the base's own) they must cost the gaits that leave them there no
