@@ -289,12 +289,15 @@ def test_moving_the_goal_recompiles_with_the_new_point():
     assert preview.goal_point() == pytest.approx([1000 * hp, 0.0, 0.0])  # the flat scene's goal
     _run(preview, 0.2)
     runtime, time_before = preview.runtime, preview.time
-    preview.perform("goal_left")
-    preview.perform("goal_forward")
+    animal = preview.focus()
+    preview.perform("goal_left")  # the far goal first comes near: 20 HP ahead of the animal, then 1 HP left
     assert preview.runtime is not runtime and preview.time == time_before
-    assert preview.goal_point() == pytest.approx([1001 * hp, hp, 0.0], abs=1e-6)
+    near = preview.goal_point()
+    assert near[:2] - animal[:2] == pytest.approx([20 * hp, hp], abs=0.01 * hp)
+    preview.perform("goal_forward")
+    assert preview.goal_point() == pytest.approx(near + [hp, 0.0, 0.0], abs=1e-6)
     goal = next(layer for layer in preview.overlays() if layer.name == "goal")
-    assert goal.kind == "point" and goal.starts.ravel() == pytest.approx([1001 * hp, hp, 0.0], abs=1e-6)
+    assert goal.kind == "point" and goal.starts.ravel() == pytest.approx(near + [hp, 0.0, 0.0], abs=1e-6)
     rigid = LivePreview("dog", "rigid")
     assert not rigid.move_goal([1.0, 0.0, 0.0]) and "no goal" in rigid.pop_notices()[0]
 

@@ -50,6 +50,13 @@ GOAL_PARAMETERS = ("goal", "target")
 GOAL_STEP_HP = 1.0
 """How far one goal action moves the goal, pelvis heights."""
 
+GOAL_FAR_HP = 50.0
+"""A goal farther than this from the animal (pelvis heights; the flat scene's is 1000 HP ahead)
+is brought near before a goal action moves it, so that one step turns the animal at once."""
+
+GOAL_NEAR_HP = 20.0
+"""Where a far goal is brought: this far from the animal, on the same bearing (pelvis heights)."""
+
 STATE_KEYS = 9
 """Actions `state_1` ... `state_9` force that state of the controller's first state machine."""
 
@@ -395,7 +402,8 @@ class LivePreview(Preview):
         return self.reload_controller()
 
     def nudge_goal(self, direction: tuple[float, float]) -> bool:
-        """Move the goal `GOAL_STEP_HP` along world x and y times `direction` (from where it is now).
+        """Move the goal `GOAL_STEP_HP` along world x and y times `direction` (from where it is now;
+        a goal beyond `GOAL_FAR_HP` first comes to `GOAL_NEAR_HP` from the animal, same bearing).
 
         Returns:
             True if moved; False if there is no goal, or one that depends on sensors (a notice says so).
@@ -404,7 +412,17 @@ class LivePreview(Preview):
         if current is None:
             self.notify(f"controller {self.runtime.name!r} has no goal point that can be moved")
             return False
-        return self.move_goal(current + GOAL_STEP_HP * self.world.hp * np.array([*direction, 0.0]))
+        return self.move_goal(self._near(current) + GOAL_STEP_HP * self.world.hp * np.array([*direction, 0.0]))
+
+    def _near(self, goal: np.ndarray) -> np.ndarray:
+        """The goal, or where a far one comes to: `GOAL_NEAR_HP` from the animal on its bearing."""
+        animal = self.focus()
+        offset = goal - animal
+        offset[2] = 0.0
+        distance = float(np.linalg.norm(offset))
+        if distance <= GOAL_FAR_HP * self.world.hp:
+            return goal
+        return np.array([*(animal[:2] + offset[:2] * (GOAL_NEAR_HP * self.world.hp / distance)), goal[2]])
 
     def machines(self) -> dict[str, list[str]]:
         """The controller's state machines and their states, in order."""
