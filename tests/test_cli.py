@@ -116,9 +116,10 @@ def test_roles_guesses_a_bvh_and_writes_a_role_map_that_loads(tmp_path):
     assert bones["lh_hip"] == "Bip01 L Thigh" and bones["pelvis"] == "Bip01 Pelvis"
 
 
-def test_analyze_recognises_a_simulated_walk_and_draws_its_footfalls(tmp_path):
+def test_a_plain_simulate_walks_the_dog_and_analyze_recognises_it_and_draws_its_footfalls(tmp_path):
+    """No `-c`: every command's default controller is `walk`, the shipped walk."""
     clip = tmp_path / "walk.npz"
-    assert invoke_cli("simulate", "-c", "spine_walk", "-s", "6", "-o", str(clip)).returncode == 0
+    assert invoke_cli("simulate", "-s", "6", "-o", str(clip)).returncode == 0
     report, diagram = tmp_path / "report.json", tmp_path / "footfalls.png"
     result = invoke_cli("analyze", str(clip), "-o", str(report), "--diagram", str(diagram))
     assert result.returncode == 0, result.stderr

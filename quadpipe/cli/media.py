@@ -50,7 +50,7 @@ def render(
     ],
     clip: Annotated[Path | None, typer.Argument(help="A baked clip (.npz); without it, simulate first.")] = None,
     animal: AnimalOpt = "dog",
-    controller: ControllerOpt = "spine_walk",
+    controller: ControllerOpt = "walk",
     scene: SceneOpt = "flat",
     seconds: SecondsOpt = 5.0,
     parameters: SetOpt = None,

@@ -48,7 +48,7 @@ if TYPE_CHECKING:
 
 def simulate(
     animal: AnimalOpt = "dog",
-    controller: ControllerOpt = "rigid",
+    controller: ControllerOpt = "walk",
     scene: SceneOpt = "flat",
     seconds: SecondsOpt = 10.0,
     output: Annotated[Path, typer.Option("-o", "--output", help="Clip to write (.npz, or any bake format).")] = Path(
@@ -82,7 +82,7 @@ def simulate(
 def bake(
     outputs: Annotated[list[Path], typer.Option("-o", "--output", help="File to write; repeat for several formats.")],
     animal: AnimalOpt = "dog",
-    controller: ControllerOpt = "spine_walk",
+    controller: ControllerOpt = "walk",
     scene: SceneOpt = "flat",
     seconds: SecondsOpt = 10.0,
     metrics: MetricsOpt = None,
@@ -302,7 +302,7 @@ def preview(
         Path | None, typer.Argument(help="A baked clip (.npz) to replay; without it, simulate live.")
     ] = None,
     animal: AnimalOpt = "dog",
-    controller: ControllerOpt = "spine_walk",
+    controller: ControllerOpt = "walk",
     scene: SceneOpt = "flat",
     parameters: SetOpt = None,
     direction: DirectionOpt = None,
