@@ -286,7 +286,7 @@ def test_moving_the_goal_recompiles_with_the_new_point():
     preview = LivePreview("dog", "spine_walk")
     hp = preview.world.hp
     assert preview.goal_parameter() == "goal"
-    assert preview.goal_point() == pytest.approx([1000 * hp, 0.0, 0.0])  # the flat scene's goal
+    assert preview.goal_point() == pytest.approx([500 * hp, 0.0, 0.0])  # the flat scene's goal
     _run(preview, 0.2)
     runtime, time_before = preview.runtime, preview.time
     animal = preview.focus()

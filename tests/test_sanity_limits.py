@@ -8,9 +8,10 @@ import math
 import pytest
 
 from quadpipe.batch import expand_jobs, load_plan, run_job
+from quadpipe.core import configs
 from quadpipe.core.errors import Location, QuadpipeError
-from quadpipe.core.limits import BODY_MASS_KG, MAX_FRAMES, MAX_SIMULATED_SECONDS, check_run
-from tests.conftest import FIXTURES
+from quadpipe.core.limits import BODY_MASS_KG, MAX_FRAMES, MAX_SIMULATED_SECONDS, SCENE_EXTENT_HP, check_run
+from tests.conftest import FIXTURES, built_animal
 
 
 @pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf, -5.0, 0.0, 1e308, 20_000.1])
@@ -88,3 +89,14 @@ def test_a_blow_up_leaves_no_mujoco_log_in_the_working_folder(tmp_path, monkeypa
     with pytest.raises(SimulationBlowUp):
         simulate("dog", str(FIXTURES / "runtime" / "explode.yaml"), seconds=1.0)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("animal", configs.available("animals"))
+def test_a_scene_length_at_the_edge_of_the_extent_is_accepted_on_every_animal(animal, tmp_path):
+    """1000 HP, written so, is in range whatever the animal's size (it came back 1000.0000000000001
+    HP on the cat from metres)."""
+    from quadpipe.world import build_scene, load_scene
+
+    scene = tmp_path / "edge.yaml"
+    scene.write_text(f"schema: 1\nname: edge\ngoals:\n  goal: [{SCENE_EXTENT_HP.high:g} HP, 0, 0]\n")
+    assert build_scene(load_scene(str(scene)), built_animal(animal)).placements

@@ -51,7 +51,7 @@ GOAL_STEP_HP = 1.0
 """How far one goal action moves the goal, pelvis heights."""
 
 GOAL_FAR_HP = 50.0
-"""A goal farther than this from the animal (pelvis heights; the flat scene's is 1000 HP ahead)
+"""A goal farther than this from the animal (pelvis heights; the flat scene's is 500 HP ahead)
 is brought near before a goal action moves it, so that one step turns the animal at once."""
 
 GOAL_NEAR_HP = 20.0
