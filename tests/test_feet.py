@@ -37,11 +37,9 @@ SHORTFALLS: dict[str, dict[tuple[str, str], str]] = {
         ("bear", "trot"): "a foot slides 7.0 % HP in a stance",
         ("elephant", "trot"): "a foot slides 9.0 % HP in a stance",
         ("pig", "trot"): "a foot slides 5.8 % HP in a stance",
-        ("rat", "trot"): "a foot slides 14.7 % HP in a stance",
     },
     "drag": {
         ("horse", "trot"): "a toe travels 4.1 % HP along the ground before lift-off",
-        ("rat", "trot"): "a toe travels 26.8 % HP along the ground before lift-off",
     },
     "sink": {
         ("cow", "trot"): "feet sink 1.6 % HP landing, 0.0 % HP resting",
