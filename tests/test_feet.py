@@ -42,8 +42,6 @@ SHORTFALLS: dict[str, dict[tuple[str, str], str]] = {
         ("horse", "trot"): "a toe travels 4.1 % HP along the ground before lift-off",
     },
     "sink": {
-        ("cow", "trot"): "feet sink 1.6 % HP landing, 0.0 % HP resting",
-        ("lion", "trot"): "feet sink 1.8 % HP landing, 0.0 % HP resting",
     },
     "clearance": {
         ("bear", "trot"): "a swinging foot comes down to 0.3 % HP above the ground mid-swing",
