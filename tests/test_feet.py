@@ -93,7 +93,7 @@ def test_a_swinging_foot_clears_the_ground(animal, gait):
 
 
 # --------------------------------------------------------------------------- the feet's tunables
-# locomotion's `landing_share` and `unload` are off in the shipped gaits (docs/gaits.md, "Soft
+# locomotion's `landing_share` and `unload` are off in the shipped gaits (docs/gait_notebook.md, "Soft
 # landings", "Clean feet": on, they take some walks' footfalls off their phases or their time on
 # the ground under 0.55); an animator may turn them on. `walk` releases its trailing fore legs
 # (`front_trailing_straight` 0.95) and rolls its fore feet (`front_toe_roll` 30 deg, toeroll).
@@ -188,7 +188,7 @@ def test_a_foot_that_rolls_over_its_toe_stays_down_longer_and_still_lifts_cleanl
 SOFT_LANDING_TROT = str(FIXTURES / "runtime" / "trot_soft_landing.yaml")
 """`trot` with locomotion's `landing_speed` 0.3 leg lengths per natural time,
 `swing_retraction` 1 and `landing_share` 0.25, the ground under each leg's top measured
-(trotsoft; docs/gaits.md, "Soft landings at the trot")."""
+(trotsoft; docs/gait_notebook.md, "Soft landings at the trot")."""
 
 SLOWER_TOUCHDOWN = 0.7
 """The soft landing brings the horse's trotting feet down at most this fraction as fast

@@ -771,7 +771,7 @@ TROT_ON_STRUTS = {
     "hind_give": "0 deg",
     "hind_drop": "0.6",
 }
-"""The trot before it carried its weight on the ground (docs/gaits.md, "Why the trot flies"):
+"""The trot before it carried its weight on the ground (docs/gait_notebook.md, "Why the trot flies"):
 a half-sine support from the clock, stiff stance couples, hind legs straight on their joint
 limits (struts); the dog's feet were down 0.17-0.20 of the cycle, the horse's hind feet 0.10."""
 
@@ -798,7 +798,7 @@ WALK_LOADING = {
     "front_trailing_floor": "1",
     "hind_trailing_floor": "1",
 }
-"""The walk's legs that give as they take the weight (walkfeet2; docs/gaits.md, "The walk's
+"""The walk's legs that give as they take the weight (walkfeet2; docs/gait_notebook.md, "The walk's
 double support"): not shipped, as one angle does not suit every species' legs and the toes
 drag more with it."""
 
@@ -829,7 +829,7 @@ def test_a_leg_that_gives_as_it_takes_the_weight_keeps_the_dogs_feet_down_as_lon
 
 FORE_LOADING_BY_LENGTH = {"front_loading_shortening": "0.05", "front_trailing_floor": "1", "hind_trailing_floor": "1"}
 """The fore legs shortened by 5 % of their rest length as they take the weight (walkflex;
-docs/gaits.md, "A loading flex by length"): not shipped, as the elbow closes 16-25 degrees."""
+docs/gait_notebook.md, "A loading flex by length"): not shipped, as the elbow closes 16-25 degrees."""
 
 FORE_DUTY_BY_LENGTH = 0.58
 """The horse's fore feet are down at least this share of the cycle with `FORE_LOADING_BY_LENGTH`
