@@ -33,7 +33,6 @@ above the ground (0.65 cm for the dog): it does not scuff or shuffle forward."""
 
 SHORTFALLS: dict[str, dict[tuple[str, str], str]] = {
     "slip": {
-        ("rat", "walk"): "a foot slides 4.9 % HP in a stance",
         ("bear", "trot"): "a foot slides 5.9 % HP in a stance",
         ("elephant", "trot"): "a foot slides 6.5 % HP in a stance",
         ("pig", "trot"): "a foot slides 3.3 % HP in a stance",

@@ -433,11 +433,6 @@ def test_strides_follow_alexanders_law(animal, gait):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="on the stiff contact the dog's walking feet are down 0.52 of the cycle (0.56 on the soft one): straight "
-    'legs lose the ground (docs/gaits.md, "Time on the ground")',
-)
 def test_the_dog_walks_at_a_dogs_walking_speed_and_duty_factor():
     dog = measured_gait("dog", "walk").gait
     assert 0.8 <= dog.speed_m_s <= 1.2
