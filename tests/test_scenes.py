@@ -309,7 +309,7 @@ def test_a_throw_leads_a_moving_target_by_its_horizontal_velocity(tmp_path: Path
     setup, model, data = build(throw_scene(tmp_path))
     (event,) = setup.events(model)
     root = model.jnt_dofadr[model.body("dog/pelvis").jntadr[0]]
-    data.qvel[root : root + 3] = [1.0, -0.5, 2.0]
+    data.qvel[root : root + 3] = [1.0, 0.5, 2.0]  # toward the throw's side (left): its start is not moved out
     mujoco.mj_forward(model, data)
     data.time = THROW_AT
     target = data.xpos[model.body("dog/pelvis").id].copy()
@@ -317,7 +317,7 @@ def test_a_throw_leads_a_moving_target_by_its_horizontal_velocity(tmp_path: Path
     plan = setup.throws[0]
     hp = setup.placements[0].built.animal.pelvis_height
     position = data.qpos[model.jnt_qposadr[model.body(plan.body).jntadr[0]] :][:3]
-    assert position == pytest.approx(target + plan.flight_time * np.array([1.0, -0.5, 0.0]) + [0, hp, 0])
+    assert position == pytest.approx(target + plan.flight_time * np.array([1.0, 0.5, 0.0]) + [0, hp, 0])
 
 
 def test_a_thrown_object_flies_to_the_target_point_at_the_requested_speed(tmp_path: Path) -> None:
@@ -385,6 +385,31 @@ def test_a_default_throw_starts_clear_of_the_animal_from_every_side(tmp_path: Pa
     setup, model, data = build(write_scene(tmp_path, f"throws:\n{throws}"), animal)
     for event, side in zip(setup.events(model), SIDES, strict=True):
         data.qvel[:] = 0.0
+        data.time = event.plan.time
+        event(model, data)
+        assert not touches_the_animal_at_launch(model, data, model.body(event.plan.body).id), side
+
+
+@pytest.mark.parametrize("froude", [0.15, 0.6, 3.3])
+@pytest.mark.parametrize("animal", ["rat", "dog", "elephant"])
+def test_a_throw_at_a_moving_animal_starts_clear_of_it_from_every_side(
+    tmp_path: Path, animal: str, froude: float
+) -> None:
+    """The same throws at an animal walking, trotting or galloping (Froude numbers): the aim
+    leads it by its flight, and a throw from behind used to start inside the animal it aims
+    ahead of (the walking dog's tenth box of the robustness series)."""
+    throws = "".join(
+        f"  - {{at: {THROW_AT * (k + 1)} s, shape: box, size: [0.2 HP, 0.2 HP, 0.2 HP], mass: 0.1 bm, "
+        f"from: {side}, speed: froude_speed(1.4), target: thorax.mid}}\n"
+        for k, side in enumerate(SIDES)
+    )
+    setup, model, data = build(write_scene(tmp_path, f"throws:\n{throws}"), animal)
+    hp = setup.placements[0].built.animal.pelvis_height
+    for event, side in zip(setup.events(model), SIDES, strict=True):
+        data.qvel[:] = 0.0
+        data.qvel[model.jnt_dofadr[model.body(f"{animal}/pelvis").jntadr[0]]] = math.sqrt(
+            froude * STANDARD_GRAVITY * hp
+        )
         data.time = event.plan.time
         event(model, data)
         assert not touches_the_animal_at_launch(model, data, model.body(event.plan.body).id), side

@@ -296,7 +296,9 @@ class ThrowEvent:
 
     It aims where the target point will be after the flight time if it keeps its horizontal
     velocity, from the side given relative to where the animal then faces, and is placed
-    where it would be at the step's time had it left exactly on time. Going back before the
+    where it would be at the step's time had it left exactly on time. It starts at least its
+    distance out from where the point is at the throw (an animal running away from it does
+    not bring its start into the animal), flying faster by what that adds. Going back before the
     throw time (a reset) parks the object again.
 
     Args:
@@ -362,11 +364,16 @@ class ThrowEvent:
         motion = np.zeros(6)
         mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, self.target, motion, 0)
         point_velocity = motion[3:] + np.cross(motion[:3], point - data.xpos[self.target])
-        aim = point + plan.flight_time * np.array([point_velocity[0], point_velocity[1], 0.0])
+        lead = plan.flight_time * np.array([point_velocity[0], point_velocity[1], 0.0])
         heading = self.heading(data)
         turn = yaw_matrix(heading)
-        start = aim + turn @ (plan.distance * plan.direction)
-        velocity = turn @ plan.launch_velocity
+        side = turn @ plan.direction
+        # A lead toward the object's side (an animal running from a throw from behind) would
+        # bring its start into the animal: it starts as far out from where the point is now,
+        # and flies that much faster to arrive on time.
+        closer = max(0.0, -float(lead @ side))
+        start = point + lead + (plan.distance + closer) * side
+        velocity = turn @ plan.launch_velocity - closer / plan.flight_time * side
         late = data.time - plan.time
         gravity = np.asarray(model.opt.gravity)
         return start + velocity * late + gravity * late**2 / 2, velocity + gravity * late, heading
