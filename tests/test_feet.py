@@ -130,10 +130,6 @@ def test_landing_share_carries_a_foot_still_in_the_air_to_a_softer_landing():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="on the stiff contact (session 12) with the walk's held swing the pressing walk's toes drag only 2.7 % HP; unload 1 leaves 2.9",
-)
 def test_unload_lets_the_toe_go_of_the_ground_before_it_lifts():
     pressed = measure("dog", "walk", **PRESSING).posture.worst("toe_drag_max_hp")
     unloaded = measure("dog", "walk", **PRESSING, unload="1").posture.worst("toe_drag_max_hp")
