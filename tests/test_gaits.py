@@ -292,7 +292,7 @@ def test_the_dogs_plain_gallop_clip_reads_as_its_rotary_gallop():
     result = cached_simulation("dog", "gallop", GALLOP_CLIP_S)
     gait = analyze_clip(result.clip).animals[0]
     assert all(gait.legs[leg].duty_factor is not None for leg in roles.LEGS), describe(gait)
-    assert gait.gait.name == "rotary gallop", describe(gait)
+    assert gait.gait.label == "rotary gallop", describe(gait)
 
 
 @pytest.mark.slow

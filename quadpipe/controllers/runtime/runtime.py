@@ -35,6 +35,7 @@ import numpy as np
 from quadpipe.anatomy.roles import FOOT_BONES, JOINT_AXES, LEGS, ROLES
 from quadpipe.animals.library import mixed_carriage, repertoire_parameters, repertoire_place
 from quadpipe.controllers.language.compiler import CompiledController, compile_controller
+from quadpipe.controllers.language.entries import ParameterEntry
 from quadpipe.controllers.language.load import load_controller
 from quadpipe.controllers.language.loader import CONTROLLER_KIND, merge_controller
 from quadpipe.controllers.runtime.allocation import allocate
@@ -500,8 +501,8 @@ def compile_for(
         placements: the animals it drives.
         parameters: parameter overrides (values as written in YAML); a name the controller
             does not declare is an error.
-        scene_parameters: values a scene offers (its goals); only those the controller
-            declares are used, and `parameters` win over them.
+        scene_parameters: values a scene offers (its goals, a direction's path); only those
+            the controller declares are used (`scene_slots`), and `parameters` win over them.
         places: where each of `parameters` was written (a batch plan's line), for messages.
 
     The animals' species offer their gait repertoire the same way (`repertoire_parameters`:
@@ -519,7 +520,8 @@ def compile_for(
     declared = declared_parameters(controller)
     given = dict(parameters or {})
     species, species_places = _species_offers(placements, declared - set(given))
-    offered = species | {name: value for name, value in (scene_parameters or {}).items() if name in declared}
+    slots = scene_slots(controller)
+    offered = species | {name: value for name, value in (scene_parameters or {}).items() if name in slots}
     overrides = offered | given
     where = {**species_places, **(places or {})} or None
     spec = load_controller(controller, parameters=overrides or None, places=where)
@@ -536,6 +538,26 @@ def declared_parameters(controller: str) -> set[str]:
     except QuadpipeError:
         return set()
     return set() if merged is None else set(merged.parameters)
+
+
+def scene_slots(controller: str) -> set[str]:
+    """The declared parameters a scene may set: all but those a controller file derives where
+    the file it extends wrote a point (`direct`'s `goal: path_goal`, over `locomotion`'s
+    `goal: [20 HP, 0, 0]`): a directed animal heads along its path, whatever goal the scene
+    names for the others."""
+    try:
+        merged = merge_controller(configs.find_config(CONTROLLER_KIND, controller), issues=[])
+    except QuadpipeError:
+        return set()
+    if merged is None:
+        return set()
+    return {name for name, entry in merged.parameters.items() if not _derives_a_point(entry)}
+
+
+def _derives_a_point(entry: ParameterEntry) -> bool:
+    """Whether a parameter entry is an expression over the point its base file wrote out."""
+    base = entry.replaces
+    return isinstance(entry.value, str) and base is not None and isinstance(base.value, list)
 
 
 def _species_offers(placements: Sequence[Placement], declared: set[str]) -> tuple[dict[str, str], dict[str, Location]]:
