@@ -281,18 +281,32 @@ GALLOP_CLIP_S = 6.0
 """How long the gallop's plain clip runs: about eleven strides of the dog's gallop."""
 
 
+PLAIN_GALLOP_SHORTFALLS = {
+    "cat": "its plain clip reads a half-bound: the right hind drags (a 0.67 s stance)",
+    "pig": "its plain clip reads a rotary gallop (the pig's is transverse): the right hind drags 1.1 HP",
+    "rat": "its plain clip reads no gait: a gallop stride is about three frames at 30 fps",
+}
+"""Gallopers whose plain clip does not yet read as their own gallop (measured, session 13)."""
+
+
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="on the stiff contact the dog's leading left hind only taps the ground: in its plain 30 fps clip it "
-    "makes no whole stride and the gait reads irregular (the footfall tests above record 120 frames a second)",
+@pytest.mark.parametrize(
+    "animal",
+    [
+        pytest.param(animal, marks=pytest.mark.xfail(strict=True, reason=PLAIN_GALLOP_SHORTFALLS[animal]))
+        if animal in PLAIN_GALLOP_SHORTFALLS
+        else animal
+        for animal in GALLOPERS
+    ],
 )
-def test_the_dogs_plain_gallop_clip_reads_as_its_rotary_gallop():
-    """As an animator bakes it: `quadpipe simulate -a dog -c gallop`, 30 frames a second."""
-    result = cached_simulation("dog", "gallop", GALLOP_CLIP_S)
+def test_a_plain_gallop_clip_reads_as_the_species_own_gallop(animal):
+    """As an animator bakes it: `quadpipe simulate -a ANIMAL -c gallop`, 30 frames a second,
+    every foot making whole strides, the species' own sequence (the dog's rotary, the horse's
+    transverse)."""
+    result = cached_simulation(animal, "gallop", GALLOP_CLIP_S)
     gait = analyze_clip(result.clip).animals[0]
     assert all(gait.legs[leg].duty_factor is not None for leg in roles.LEGS), describe(gait)
-    assert gait.gait.label == "rotary gallop", describe(gait)
+    assert gait.gait.label == f"{load_animal(animal).gaits['gallop'].sequence} gallop", describe(gait)
 
 
 @pytest.mark.slow
