@@ -533,11 +533,7 @@ def declared_parameters(controller: str) -> set[str]:
     """The names of the parameters (and tunables) a controller declares, its `extends` chain
     included, read without analysing it: what it can be offered before it is loaded once with
     its values. Empty when its files do not read (loading it then says why)."""
-    try:
-        merged = merge_controller(configs.find_config(CONTROLLER_KIND, controller), issues=[])
-    except QuadpipeError:
-        return set()
-    return set() if merged is None else set(merged.parameters)
+    return set(_declared_entries(controller))
 
 
 def scene_slots(controller: str) -> set[str]:
@@ -545,13 +541,17 @@ def scene_slots(controller: str) -> set[str]:
     the file it extends wrote a point (`direct`'s `goal: path_goal`, over `locomotion`'s
     `goal: [20 HP, 0, 0]`): a directed animal heads along its path, whatever goal the scene
     names for the others."""
+    return {name for name, entry in _declared_entries(controller).items() if not _derives_a_point(entry)}
+
+
+def _declared_entries(controller: str) -> dict[str, ParameterEntry]:
+    """A controller's parameter entries, merged along its `extends` chain (empty when its files
+    do not read)."""
     try:
         merged = merge_controller(configs.find_config(CONTROLLER_KIND, controller), issues=[])
     except QuadpipeError:
-        return set()
-    if merged is None:
-        return set()
-    return {name for name, entry in merged.parameters.items() if not _derives_a_point(entry)}
+        return {}
+    return {} if merged is None else dict(merged.parameters)
 
 
 def _derives_a_point(entry: ParameterEntry) -> bool:
