@@ -84,11 +84,11 @@ def _evaluate(value: Any, expect: Expect, scale: units.Scale) -> Any:
 
 
 _FAR = f"is over {SCENE_EXTENT_HP.high:g} HP: no scene reaches that far"
+"""The problem of a length too large for any scene."""
 
 _HP_ROUNDING = 1e-9
 """A length written in HP comes back from metres a few ulps over (1000 HP on the cat read
 1000.0000000000001 HP): the extent check forgives this relative rounding."""
-"""The problem of a length too large for any scene."""
 
 
 def _not_sane(value: Any, expect: Expect, hp: float) -> str | None:
@@ -96,10 +96,10 @@ def _not_sane(value: Any, expect: Expect, hp: float) -> str | None:
     values = np.atleast_1d(np.asarray(value, dtype=float))
     if not np.isfinite(values).all():
         return "is not a finite number"
+    if expect.dims != (units.LENGTH,):
+        return None
     extent_hp = float(np.abs(values).max()) / hp * (1.0 - _HP_ROUNDING)
-    if expect.dims == (units.LENGTH,) and SCENE_EXTENT_HP.problem(extent_hp) is not None:
-        return _FAR
-    return None
+    return _FAR if SCENE_EXTENT_HP.problem(extent_hp) is not None else None
 
 
 def _out_of_bounds(value: Any, bounds: Bounds | None) -> str | None:

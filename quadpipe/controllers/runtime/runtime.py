@@ -502,7 +502,7 @@ def compile_for(
         parameters: parameter overrides (values as written in YAML); a name the controller
             does not declare is an error.
         scene_parameters: values a scene offers (its goals, a direction's path); only those
-            the controller declares are used (`scene_slots`), and `parameters` win over them.
+            the controller declares are used (`_scene_slots`), and `parameters` win over them.
         places: where each of `parameters` was written (a batch plan's line), for messages.
 
     The animals' species offer their gait repertoire the same way (`repertoire_parameters`:
@@ -517,10 +517,10 @@ def compile_for(
             `mixed-repertoires` when the animals' species offer different values of a
             parameter the controller declares and the caller does not set.
     """
-    declared = declared_parameters(controller)
+    entries = _declared_entries(controller)
     given = dict(parameters or {})
-    species, species_places = _species_offers(placements, declared - set(given))
-    slots = scene_slots(controller)
+    species, species_places = _species_offers(placements, set(entries) - set(given))
+    slots = _scene_slots(entries)
     offered = species | {name: value for name, value in (scene_parameters or {}).items() if name in slots}
     overrides = offered | given
     where = {**species_places, **(places or {})} or None
@@ -529,24 +529,18 @@ def compile_for(
     return compile_controller(spec, scale), spec.sources
 
 
-def declared_parameters(controller: str) -> set[str]:
-    """The names of the parameters (and tunables) a controller declares, its `extends` chain
-    included, read without analysing it: what it can be offered before it is loaded once with
-    its values. Empty when its files do not read (loading it then says why)."""
-    return set(_declared_entries(controller))
-
-
-def scene_slots(controller: str) -> set[str]:
+def _scene_slots(entries: Mapping[str, ParameterEntry]) -> set[str]:
     """The declared parameters a scene may set: all but those a controller file derives where
     the file it extends wrote a point (`direct`'s `goal: path_goal`, over `locomotion`'s
     `goal: [20 HP, 0, 0]`): a directed animal heads along its path, whatever goal the scene
     names for the others."""
-    return {name for name, entry in _declared_entries(controller).items() if not _derives_a_point(entry)}
+    return {name for name, entry in entries.items() if not _derives_a_point(entry)}
 
 
 def _declared_entries(controller: str) -> dict[str, ParameterEntry]:
-    """A controller's parameter entries, merged along its `extends` chain (empty when its files
-    do not read)."""
+    """The parameters (and tunables) a controller declares, its `extends` chain included, read
+    without analysing it: what it can be offered before it is loaded once with its values.
+    Empty when its files do not read (loading it then says why)."""
     try:
         merged = merge_controller(configs.find_config(CONTROLLER_KIND, controller), issues=[])
     except QuadpipeError:
