@@ -8,8 +8,9 @@ import time
 from pathlib import Path
 
 import pytest
+import yaml
 
-from quadpipe.core import limits
+from quadpipe.core import limits, yamlio
 from quadpipe.core.errors import QuadpipeError
 from quadpipe.core.limits import Limit
 from quadpipe.core.textfiles import decode, read_text
@@ -104,6 +105,27 @@ def test_nesting_deeper_than_the_limit_is_refused_before_python_recurses() -> No
     with pytest.raises(QuadpipeError) as error:
         parse_yaml("x: " + "[" * depth + "]" * depth, "f")
     assert _issue(error) == ("limit-exceeded", "f:1:103")  # the 100th "[" is the 101st level
+
+
+class _LibyamlWithANestingLimit(yaml.SafeLoader):
+    """PyYAML's loader refusing a flow nesting past 1000 levels as a syntax error, as the libyaml
+    of some PyYAML wheels does ("while increasing flow level: exceeded maximum nesting depth")."""
+
+    def fetch_flow_collection_start(self, token_class: type) -> None:  # type: ignore[override]
+        if self.flow_level >= 1000:
+            mark = self.get_mark()
+            raise yaml.scanner.ScannerError("while increasing flow level", mark, "exceeded maximum nesting depth", mark)
+        super().fetch_flow_collection_start(token_class)  # type: ignore[misc]
+
+
+def test_a_libyaml_that_refuses_deep_nesting_as_a_syntax_error_gives_the_same_answer(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(yamlio, "_LOADER", _LibyamlWithANestingLimit)
+    depth = 50_000
+    with pytest.raises(QuadpipeError) as error:
+        parse_yaml("x: " + "[" * depth + "]" * depth, "f")
+    assert _issue(error) == ("limit-exceeded", "f:1:103")
 
 
 def test_an_alias_inside_its_own_anchor_is_refused() -> None:

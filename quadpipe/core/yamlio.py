@@ -105,8 +105,8 @@ def _construct(node: yaml.Node, path: PathKey, doc: YamlDocument, loader: Any) -
 def parse_yaml(text: str, file: str = "<input>") -> YamlDocument:
     """Parse YAML text into a `YamlDocument`; syntax errors become a located `QuadpipeError`.
 
-    Parsing uses libyaml when available; a syntax error is parsed again with PyYAML's own
-    loader, whose messages say more ("expected <block end>, but found '<scalar>'"). Before
+    Parsing uses libyaml when available; a syntax error is measured and parsed again with
+    PyYAML's own loader, whose messages say more ("expected <block end>, but found '<scalar>'"). Before
     anything is built, the parser's events are measured (`_measure`): too deep a nesting, too
     many aliases, or aliases that would expand past `MAX_YAML_NODES` are refused.
     """
@@ -119,6 +119,9 @@ def parse_yaml(text: str, file: str = "<input>") -> YamlDocument:
         exc = first
         if _LOADER is not yaml.SafeLoader:
             try:
+                # Measured again: some libyaml builds refuse a nesting past 1000 levels as a
+                # syntax error, and PyYAML's own composer would recurse through all of them.
+                _measure(text, file, yaml.SafeLoader)
                 _parse(text, file, yaml.SafeLoader)
             except yaml.MarkedYAMLError as detailed:
                 exc = detailed
