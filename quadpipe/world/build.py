@@ -79,8 +79,18 @@ class SceneSetup:
         """
         starts: list[Callable] = [PropStart(model, name, velocity) for name, velocity in self.prop_velocities.items()]
         headings = dict(zip((p.name for p in self.placements), self.headings))
-        throws = [ThrowEvent(model, plan, self._point_offset(plan), headings[plan.animal]) for plan in self.throws]
+        throws = [
+            ThrowEvent(model, plan, self._point_offset(plan), headings[plan.animal], self._bones(plan.animal))
+            for plan in self.throws
+        ]
         return starts + throws
+
+    def _bones(self, animal: str) -> list[tuple[str, np.ndarray]]:
+        """An animal's bones for its throws: each bone's body and the bone in that body's frame
+        (a bone's body starts at the bone's start, its axes the world's in the rest pose)."""
+        placement = next(p for p in self.placements if p.name == animal)
+        bones = placement.built.animal.skeleton.bones
+        return [(f"{animal}/{role}", np.asarray(bone.end) - np.asarray(bone.start)) for role, bone in bones.items()]
 
     def _point_offset(self, plan: ThrowPlan) -> tuple[str, np.ndarray]:
         """The target's body and the point's offset from that body's origin, in the body frame."""

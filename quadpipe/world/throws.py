@@ -79,6 +79,10 @@ class ThrowPlan:
         distance: metres from the target where it appears.
         flight_time: seconds from the throw to the target.
         launch_velocity: velocity when thrown, heading frame, m/s.
+        room: metres kept between the animal's bones and the object's centre along its way
+            (its radius and `CLEAR_HP`): the half width of the corridor in which bones count.
+        rest_reach: how far the rest pose's bones reach from the target toward `direction`
+            within that corridor, metres (see `clear_distance`).
     """
 
     body: str
@@ -93,6 +97,8 @@ class ThrowPlan:
     distance: float
     flight_time: float
     launch_velocity: np.ndarray
+    room: float
+    rest_reach: float
 
 
 def add_thrown(spec: mujoco.MjSpec, throws: list[ThrowPlan], tau: float, hp: float) -> None:
@@ -130,7 +136,8 @@ def plan_throws(scene: SceneSpec, values: Values, skeletons: dict[str, Skeleton]
             speed_path = base + ("random", "speed")
         for time, mass, speed, direction in shots:
             room = bounding_radius(item.shape, size) + CLEAR_HP * values.hp
-            clear = clear_distance(skeletons[animal], point, direction, room) + room
+            rest_reach = clear_distance(skeletons[animal], point, direction, room)
+            clear = rest_reach + room
             distance, flight, speed = _aim(
                 speed,
                 direction,
@@ -156,6 +163,8 @@ def plan_throws(scene: SceneSpec, values: Values, skeletons: dict[str, Skeleton]
                     distance,
                     flight,
                     launch,
+                    room,
+                    rest_reach,
                 )
             )
     return plans
@@ -258,8 +267,18 @@ def clear_distance(skeleton: Skeleton, point: str, direction: np.ndarray, corrid
     way within `corridor` metres of the line the object comes along."""
     role, offset = point_on_bone(skeleton, point)
     target = skeleton[role].start + offset
+    lines = [(np.asarray(bone.start), np.asarray(bone.end)) for bone in skeleton.bones.values()]
+    return reach(lines, target, direction, corridor)
+
+
+def reach(
+    lines: list[tuple[np.ndarray, np.ndarray]], target: np.ndarray, direction: np.ndarray, corridor: float
+) -> float:
+    """How far bones (start and end points) reach from `target` toward the unit `direction`,
+    metres (0 if none is that way): the farthest of `BONE_SAMPLES` points along each bone
+    within `corridor` metres of the line through `target` along `direction`."""
     along = np.linspace(0.0, 1.0, BONE_SAMPLES)[:, None]
-    points = np.concatenate([bone.start + along * (bone.end - bone.start) for bone in skeleton.bones.values()])
+    points = np.concatenate([start + along * (end - start) for start, end in lines])
     offsets = points - target
     ahead = offsets @ direction
     aside = np.linalg.norm(offsets - ahead[:, None] * direction, axis=1)
@@ -298,18 +317,28 @@ class ThrowEvent:
     velocity, from the side given relative to where the animal then faces, and is placed
     where it would be at the step's time had it left exactly on time. It starts at least its
     distance out from where the point is at the throw (an animal running away from it does
-    not bring its start into the animal), flying faster by what that adds. Going back before the
-    throw time (a reset) parks the object again.
+    not bring its start into the animal), and farther out by what the animal's bones then reach
+    beyond their rest pose's reach that way (a tail carried out behind, a head stretched
+    forward), flying faster by what that adds. Going back before the throw time (a reset) parks the object again.
 
     Args:
         model: the compiled scene.
         plan: the throw.
-        target_body: name of the body carrying the target point.
-        offset: the point in that body's frame, metres.
+        target: name of the body carrying the target point, and the point in that body's
+            frame, metres.
         start_heading: the animal's start heading, used when it faces straight up or down.
+        bones: the animal's bones: the name of each bone's body, and the bone from that body's
+            origin (its start) to its end, in the body's frame, metres.
     """
 
-    def __init__(self, model: mujoco.MjModel, plan: ThrowPlan, target: tuple[str, np.ndarray], start_heading: float):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        plan: ThrowPlan,
+        target: tuple[str, np.ndarray],
+        start_heading: float,
+        bones: list[tuple[str, np.ndarray]],
+    ):
         self.plan = plan
         body = model.body(plan.body)
         self.body = int(body.id)
@@ -320,6 +349,7 @@ class ThrowEvent:
         self.target = int(model.body(target[0]).id)
         self.offset = np.asarray(target[1], dtype=float)
         self.pelvis = int(model.body(f"{plan.animal}/pelvis").id)
+        self.bones = [(int(model.body(name).id), np.asarray(vector, dtype=float)) for name, vector in bones]
         self.start_heading = start_heading
         self.parked = model.qpos0[self.qpos : self.qpos + 7].copy()
         self.thrown = False
@@ -370,13 +400,24 @@ class ThrowEvent:
         side = turn @ plan.direction
         # A lead toward the object's side (an animal running from a throw from behind) would
         # bring its start into the animal: it starts as far out from where the point is now,
-        # and flies that much faster to arrive on time.
+        # and farther by what the bones reach now beyond their rest pose's reach; it flies
+        # that much faster to arrive on time.
         closer = max(0.0, -float(lead @ side))
-        start = point + lead + (plan.distance + closer) * side
-        velocity = turn @ plan.launch_velocity - closer / plan.flight_time * side
+        farther = max(0.0, self.reach_now(data, point, side) - plan.rest_reach)
+        out = plan.distance + closer + farther
+        start = point + lead + out * side
+        velocity = turn @ plan.launch_velocity - (out - plan.distance) / plan.flight_time * side
         late = data.time - plan.time
         gravity = np.asarray(model.opt.gravity)
         return start + velocity * late + gravity * late**2 / 2, velocity + gravity * late, heading
+
+    def reach_now(self, data: mujoco.MjData, point: np.ndarray, side: np.ndarray) -> float:
+        """How far the animal's bones reach now from `point` toward `side` (see `reach`), metres."""
+        lines = []
+        for body, vector in self.bones:
+            start = data.xpos[body]
+            lines.append((start, start + data.xmat[body].reshape(3, 3) @ vector))
+        return reach(lines, point, side, self.plan.room)
 
     def _launch(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         mujoco.mj_forward(model, data)
