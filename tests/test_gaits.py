@@ -748,20 +748,22 @@ figure was found, an estimate from contact times gives 0.41-0.51: docs/gaits.md,
 ground")."""
 
 DUTY_SHORTFALLS = {
-    ("bear", "walk"): "a foot is down 0.52 of the cycle (0.7 asked)",
-    ("cat", "walk"): "a foot is down 0.55 of the cycle (0.7 asked)",
+    ("bear", "walk"): "a foot is down 0.55 of the cycle (0.7 asked)",
+    ("cat", "walk"): "a foot is down 0.51 of the cycle (0.7 asked)",
     ("cow", "walk"): "a foot is down 0.54 of the cycle (0.7 asked)",
-    ("dog", "walk"): "a foot is down 0.56 of the cycle (0.7 asked)",
-    ("elephant", "walk"): "a foot is down 0.55 of the cycle (0.7 asked)",
-    ("goat", "walk"): "a foot is down 0.54 of the cycle (0.7 asked)",
-    ("horse", "walk"): "a foot is down 0.53 of the cycle (0.7 asked)",
-    ("lion", "walk"): "a foot is down 0.56 of the cycle (0.7 asked)",
-    ("pig", "walk"): "a foot is down 0.54 of the cycle (0.7 asked)",
-    ("rat", "walk"): "a foot is down 0.55 of the cycle (0.7 asked)",
+    ("dog", "walk"): "a foot is down 0.52 of the cycle (0.7 asked)",
+    ("elephant", "walk"): "a foot is down 0.52 of the cycle (0.7 asked)",
+    ("goat", "walk"): "a foot is down 0.52 of the cycle (0.7 asked)",
+    ("horse", "walk"): "a foot is down 0.51 of the cycle (0.7 asked)",
+    ("lion", "walk"): "a foot is down 0.51 of the cycle (0.7 asked)",
+    ("pig", "walk"): "a foot is down 0.53 of the cycle (0.7 asked)",
+    ("rat", "walk"): "a foot is down 0.49 of the cycle (0.7 asked)",
 }
-"""Measured (shortest leg): the walk's straight legs lose the ground 0.1-0.15 cycle before
-lift-off (docs/gaits.md, "Time on the ground"); the trot carries its weight on the ground
-(docs/gaits.md, "The trot on the ground at its speed")."""
+"""Measured (shortest leg, session 14): the walk's fore feet lift 0.02-0.04 cycle after the other
+fore foot lands, 0.49-0.56 of the cycle on every animal (the hind feet 0.59-0.68 on the bear,
+the dog, the lion, the cat and the rat with the rolled hind toe, 0.51-0.55 on the hoofed
+animals and the elephant; docs/gait_notebook.md, "The fore feet lift as their mate lands");
+the trot carries its weight on the ground (docs/gaits.md, "The trot on the ground at its speed")."""
 
 
 @pytest.mark.slow
