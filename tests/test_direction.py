@@ -593,15 +593,15 @@ STEADY_SETTLE_NATURAL = 3.0
 trot) and before its arrival (the stand's fade starts 0.75 natural time before the mark)."""
 
 DIRECTED_POSTURE_SHORTFALLS = {
-    ("cat", "trot"): "a fore foot lands with the elbow and carpus still folded from the swing: 20.2 and 11.6 deg "
+    ("cat", "trot"): "a fore foot lands with the elbow and carpus still folded from the swing: 20.7 and 11.6 deg "
     "at 30 fps (a stance under 10 frames keeps its landing frame)",
-    ("dog", "trot"): "a fore foot lands with the elbow and carpus still folded from the swing: 21.6 and 7.3 deg "
+    ("dog", "trot"): "a fore foot lands with the elbow and carpus still folded from the swing: 22.2 and 7.5 deg "
     "at 30 fps",
-    ("goat", "trot"): "a fore foot lands with the elbow and carpus still folded from the swing: 33.2 and 29.5 deg "
+    ("goat", "trot"): "a fore foot lands with the elbow and carpus still folded from the swing: 28.1 and 23.9 deg "
     "at 30 fps",
-    ("lion", "trot"): "a fore foot lands with the elbow and carpus still folded from the swing: 30.7 and 25.4 deg "
+    ("lion", "trot"): "a fore foot lands with the elbow and carpus still folded from the swing: 37.3 and 33.4 deg "
     "at 30 fps",
-    ("pig", "trot"): "a fore foot lands with the elbow and carpus still folded from the swing: 25.6 and 21.4 deg "
+    ("pig", "trot"): "a fore foot lands with the elbow and carpus still folded from the swing: 18.4 and 7.2 deg "
     "at 30 fps",
     ("rat", "trot"): "carried crouched (its config's `upright: 0`, as small mammals run): elbow 85, carpus 92, "
     "knee 28, hock 16 deg beyond standing",
@@ -859,7 +859,7 @@ IN_PLACE_HP = 0.3
             marks=pytest.mark.xfail(
                 strict=True,
                 reason="on the stiff contact the lying dog creeps round and stands up off its path: it turns "
-                "190.9 of 180 deg",
+                "190.3 of 180 deg",
             ),
         ),
         "horse",
