@@ -146,6 +146,7 @@ NEUTRAL_TUNABLES = {
     "front_loading_shortening": "0.05",
     "hind_loading_shortening": "0.05",
     "front_loading_shoulder": "1",
+    "load_traction": "0.3",
 }
 """`locomotion` tunables whose default keeps the gaits as they were, each with a value that
 acts: at their default (the base's own) they must cost the gaits that leave them there no

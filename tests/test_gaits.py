@@ -256,7 +256,7 @@ TRANSVERSE_GALLOP = {"lh": 0.0, "rh": 0.2, "lf": 0.48, "rf": 0.68}
 
 GALLOP_FROUDE = 3.0
 """The slowest gallop accepted (animals gallop from Fr 2-3, Alexander & Jayes 1983;
-configs/controllers/gallop.yaml asks 3.3, as its straight legs run a little slower than asked)."""
+configs/controllers/gallop.yaml asks 3.55, as its straight legs, running straight, go slower than asked)."""
 
 
 def gallop_phases(animal: str) -> dict[str, float]:
@@ -282,11 +282,11 @@ GALLOP_CLIP_S = 6.0
 
 
 PLAIN_GALLOP_SHORTFALLS = {
-    "cat": "its plain clip reads a half-bound: the right hind drags (a 0.67 s stance)",
-    "pig": "its plain clip reads a rotary gallop (the pig's is transverse): the right hind drags 1.1 HP",
+    "cat": "its plain clip reads a transverse gallop (the cat's is rotary): the right fore is down 0.08 of the cycle",
+    "pig": "its plain clip reads a rotary gallop (the pig's is transverse): the right hind is down 0.03 of the cycle",
     "rat": "its plain clip reads no gait: a gallop stride is about three frames at 30 fps",
 }
-"""Gallopers whose plain clip does not yet read as their own gallop (measured, session 13)."""
+"""Gallopers whose plain clip does not yet read as their own gallop (measured, session 14)."""
 
 
 @pytest.mark.slow
@@ -307,6 +307,60 @@ def test_a_plain_gallop_clip_reads_as_the_species_own_gallop(animal):
     gait = analyze_clip(result.clip).animals[0]
     assert all(gait.legs[leg].duty_factor is not None for leg in roles.LEGS), describe(gait)
     assert gait.gait.label == f"{load_animal(animal).gaits['gallop'].sequence} gallop", describe(gait)
+
+
+GALLOP_COURSE_S = 12.0
+"""How long the gallop's course clip runs: about 22 strides of the dog's gallop, long enough
+for a gallop that drifts sideways to turn its course (the dog's, on the shipped settings of
+session 13, ran 25-35 deg off its goal from 4 s on)."""
+
+GALLOP_COURSE_DEG = 5.0
+"""Largest angle between the way a plain gallop clip travels over its last two thirds and
+the way to its goal."""
+
+GALLOP_CRAB_DEG = 5.0
+"""Largest angle between the way the clip travels and the way its trunk (pelvis to thorax)
+faces, on average over the same frames: more reads as an animal galloping sideways."""
+
+FLAT_GOAL_HP = 500.0
+"""The `flat` scene's goal, straight ahead along +X (configs/scenes/flat.yaml)."""
+
+GALLOP_COURSE_SHORTFALLS: dict[str, str] = {}
+"""Gallopers whose plain clip does not yet run at its goal facing its way (measured)."""
+
+
+def wrapped_deg(angle: float) -> float:
+    """An angle in degrees brought within -180 to 180."""
+    return (angle + 180.0) % 360.0 - 180.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "animal",
+    [
+        pytest.param(animal, marks=pytest.mark.xfail(strict=True, reason=GALLOP_COURSE_SHORTFALLS[animal]))
+        if animal in GALLOP_COURSE_SHORTFALLS
+        else animal
+        for animal in GALLOPERS
+    ],
+)
+def test_a_plain_gallop_clip_runs_at_its_goal_facing_the_way_it_runs(animal):
+    """As an animator bakes it (`quadpipe simulate -a ANIMAL -c gallop`, the goal straight
+    ahead): the animal gallops toward the goal, not off to the side, and its body faces the
+    way it runs (it does not crab)."""
+    result = cached_simulation(animal, "gallop", GALLOP_COURSE_S)
+    pelvis = result.clip.animals[0].positions[:, roles.ROLES.index("pelvis"), :2]
+    start = len(pelvis) // 3
+    travel = pelvis[-1] - pelvis[start]
+    to_goal = np.array([FLAT_GOAL_HP * built_animal(animal).animal.pelvis_height, 0.0]) - pelvis[start]
+    travel_deg = math.degrees(math.atan2(travel[1], travel[0]))
+    off_course = wrapped_deg(travel_deg - math.degrees(math.atan2(to_goal[1], to_goal[0])))
+    yaw = np.radians(trunk_yaw_deg(result.clip)[start:])
+    facing_deg = math.degrees(math.atan2(np.sin(yaw).sum(), np.cos(yaw).sum()))
+    crab = wrapped_deg(travel_deg - facing_deg)
+    figures = f"travels {off_course:.1f} deg off its goal, its trunk faces {crab:.1f} deg off its travel"
+    assert abs(off_course) <= GALLOP_COURSE_DEG, figures
+    assert abs(crab) <= GALLOP_CRAB_DEG, figures
 
 
 @pytest.mark.slow
@@ -790,6 +844,7 @@ TROT_ON_STRUTS = {
     "hind_joint_share": "1",
     "hind_give": "0 deg",
     "hind_drop": "0.6",
+    "load_traction": "0",
 }
 """The trot before it carried its weight on the ground (docs/gait_notebook.md, "Why the trot flies"):
 a half-sine support from the clock, stiff stance couples, hind legs straight on their joint
@@ -877,9 +932,7 @@ MAX_HEAD_DROP_HP = 0.15
 """The head is carried within this of its standing height (mean over the clip: the nod goes
 either side of it)."""
 
-HEAD_CARRIAGE_SHORTFALLS = {
-    ("rat", "trot"): "the head is carried 0.22 HP under its standing height",
-}
+HEAD_CARRIAGE_SHORTFALLS: dict[tuple[str, str], str] = {}
 """Measured where the head is not yet carried at its standing height."""
 
 TAIL_TRAILERS = ("rat",)
