@@ -123,10 +123,11 @@ DOG = Species(
     # femur/tibia/metatarsus 0.33/0.44/0.23) and the Blender Rigify wolf metarig (0.21/0.28/
     # 0.28/0.14/0.09 and 0.31/0.34/0.24/0.11); scapula ~ humerus ~ femur, tibia longest.
     # Standing pose: scapula laid back ~40 deg from the vertical, elbow under the withers,
-    # metapodials near vertical, toes on the ground; stifle and hock 135 deg (a standing dog's
-    # stifle is 135-145, mean 145 at mid-stance: Vet. Sci. 2022, 9:644; docs/gaits.md, "Standing
-    # poses"; they were 112 and 130). The femur, tibia and metatarsus are 0.93 of their first
-    # lengths, so that the straighter leg still ends on the ground with the pelvis at HP.
+    # metapodials near vertical, toes on the ground; stifle 133 and hock 147 deg (a standing
+    # dog's stifle is 135-145, mean 145 at mid-stance, its hock 145-163: Vet. Sci. 2022, 9:644;
+    # docs/gaits.md, "Standing poses"; they were 112 and 130, then 135 and 135). The femur,
+    # tibia and metatarsus are 0.93 of their first lengths, so that the straighter leg still
+    # ends on the ground with the pelvis at HP.
     # Axial lengths (tail, spine, neck) follow the thesis's Fig. 7 part masses (see `report`).
     name="dog",
     hp_cm=65.56,
@@ -138,7 +139,7 @@ DOG = Species(
     tail_root=(0.05, 0.01),
     tail=segs((0.23, -20.0), (0.23, -40.0), (0.23, -55.0), (0.21, -65.0)),
     hip=(0.04, 0.08, 0.11),
-    hind=segs((0.328, 15.0), (0.375, -30.0), (0.225, 15.0), (0.055, 50.0), (0.045, 65.0), (0.04, 80.0)),
+    hind=segs((0.328, 21.0), (0.375, -26.0), (0.225, 7.0), (0.055, 50.0), (0.045, 65.0), (0.04, 80.0)),
     scapula=(0.16, 0.02, 0.06),
     shoulder_lateral=0.11,
     front=segs((0.312, 38.0), (0.332, -50.0), (0.372, -2.0), (0.161, 15.0), (0.06, 55.0), (0.05, 75.0)),
