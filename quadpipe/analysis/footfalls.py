@@ -67,10 +67,6 @@ def clean_contacts(contact: np.ndarray, min_frames: int) -> np.ndarray:
 def debounce(contact: np.ndarray, min_frames: int) -> np.ndarray:
     """One foot's contacts without flickers: gaps, then contacts, shorter than `min_frames` removed.
 
-    Only runs between two others count: the clip's (or window's) first and last frames may cut
-    a swing or a stance short, and a foot still in the air on the first frame is not a flicker
-    (flipped, its folded landing leg read as a stance leg).
-
     Args:
         contact: (F,) booleans.
         min_frames: shortest run that counts.
@@ -78,7 +74,7 @@ def debounce(contact: np.ndarray, min_frames: int) -> np.ndarray:
     cleaned = np.asarray(contact, dtype=bool).copy()
     for value in (False, True):
         for start, stop in runs(cleaned, value):
-            if stop - start < min_frames and start > 0 and stop < len(cleaned):
+            if stop - start < min_frames:
                 cleaned[start:stop] = not value
     return cleaned
 
