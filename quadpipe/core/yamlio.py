@@ -106,9 +106,10 @@ def parse_yaml(text: str, file: str = "<input>") -> YamlDocument:
     """Parse YAML text into a `YamlDocument`; syntax errors become a located `QuadpipeError`.
 
     Parsing uses libyaml when available; a syntax error is measured and parsed again with
-    PyYAML's own loader, whose messages say more ("expected <block end>, but found '<scalar>'"). Before
-    anything is built, the parser's events are measured (`_measure`): too deep a nesting, too
-    many aliases, or aliases that would expand past `MAX_YAML_NODES` are refused.
+    PyYAML's own loader, whose messages say more ("expected <block end>, but found
+    '<scalar>'"). Before anything is built, the parser's events are measured (`_measure`): too
+    deep a nesting, too many aliases, or aliases that would expand past `MAX_YAML_NODES` are
+    refused.
     """
     try:
         _measure(text, file, _LOADER)

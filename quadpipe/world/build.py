@@ -85,17 +85,19 @@ class SceneSetup:
         ]
         return starts + throws
 
+    def _placement(self, animal: str) -> Placement:
+        """The placement of the animal named `animal`."""
+        return next(p for p in self.placements if p.name == animal)
+
     def _bones(self, animal: str) -> list[tuple[str, np.ndarray]]:
         """An animal's bones for its throws: each bone's body and the bone in that body's frame
         (a bone's body starts at the bone's start, its axes the world's in the rest pose)."""
-        placement = next(p for p in self.placements if p.name == animal)
-        bones = placement.built.animal.skeleton.bones
+        bones = self._placement(animal).built.animal.skeleton.bones
         return [(f"{animal}/{role}", np.asarray(bone.end) - np.asarray(bone.start)) for role, bone in bones.items()]
 
     def _point_offset(self, plan: ThrowPlan) -> tuple[str, np.ndarray]:
         """The target's body and the point's offset from that body's origin, in the body frame."""
-        placement = next(p for p in self.placements if p.name == plan.animal)
-        role, offset = point_on_bone(placement.built.animal.skeleton, plan.point)
+        role, offset = point_on_bone(self._placement(plan.animal).built.animal.skeleton, plan.point)
         return f"{plan.animal}/{role}", offset
 
 

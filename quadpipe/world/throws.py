@@ -317,9 +317,10 @@ class ThrowEvent:
     velocity, from the side given relative to where the animal then faces, and is placed
     where it would be at the step's time had it left exactly on time. It starts at least its
     distance out from where the point is at the throw (an animal running away from it does
-    not bring its start into the animal), and farther out by what the animal's bones then reach
-    beyond their rest pose's reach that way (a tail carried out behind, a head stretched
-    forward), flying faster by what that adds. Going back before the throw time (a reset) parks the object again.
+    not bring its start into the animal), and farther out by what the animal's bones then
+    reach beyond their rest pose's reach that way (a tail carried out behind, a head stretched
+    forward), flying faster by what that adds. Going back before the throw time (a reset)
+    parks the object again.
 
     Args:
         model: the compiled scene.
