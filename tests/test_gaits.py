@@ -35,7 +35,7 @@ from quadpipe.analysis.footfalls import clean_contacts, min_run_frames
 from quadpipe.analysis.posture import AnimalPosture
 from quadpipe.anatomy import roles
 from quadpipe.animals.library import load_animal
-from quadpipe.animals.sizing import GRAVITY, natural_time
+from quadpipe.animals.sizing import GRAVITY, natural_time, timestep
 from quadpipe.clip.model import Clip
 from quadpipe.core import configs
 from quadpipe.sim.recording import Recorder
@@ -51,6 +51,13 @@ DOG_FPS = 120.0
 def own_time(animal: str) -> float:
     """An animal's natural time sqrt(HP / g), seconds (0.26 s for the dog)."""
     return natural_time(built_animal(animal).animal.pelvis_height)
+
+
+def natural_fps(animal: str) -> float:
+    """The recording rate, dividing the animal's physics rate, nearest to as many frames per
+    natural time as the dog's `DOG_FPS` (as `NaturalTimeRecorder` records): the rat's 680."""
+    rate = 1.0 / timestep(built_animal(animal).animal.pelvis_height)
+    return rate / max(1, round(rate * own_time(animal) / (DOG_FPS * own_time("dog"))))
 
 
 FAR_GOAL = "[1000 HP, 0, 0]"
