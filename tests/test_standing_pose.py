@@ -75,16 +75,27 @@ BANDS = (
         "hind knee",
         104.0,
         144.0,
-        "stifle over the walking cycle 104-144 deg, mean 127, extended in stance "
-        "(3D hindlimb kinematics of walking cats, summarised on grokipedia, 'Hindlimb kinematics in cats')",
+        "stifle over the walking cycle 104-144 deg, mean 127, extended in stance (3D hindlimb kinematics "
+        "of 3 cats walking at 0.73 m/s, Brown, Bertocci, Cheffer & Howland 2018, PMID 30080884; the "
+        "figures from a secondary summary, grokipedia, 'Hindlimb kinematics in cats'). Walking, not "
+        "standing: the quiet-stance studies (Lacquaniti et al. 1990, J Physiol 426:177; Fung & Macpherson "
+        "1999, J Neurophysiol 82:3056) were seen only as abstracts, with limb axes and no knee angle",
     ),
-    Band("cat", "hind hock", 104.0, 133.0, "tarsus over the walking cycle 104-133 deg, mean 117 (same)"),
+    Band(
+        "cat",
+        "hind hock",
+        104.0,
+        133.0,
+        "tarsus over the walking cycle 104-133 deg, mean 117 (same; no quiet-stance ankle angle found)",
+    ),
     Band(
         "horse",
         "fore shoulder",
         120.0,
         130.0,
-        "scapulohumeral joint 120-130 deg standing (Wikipedia, 'Equine forelimb anatomy')",
+        "caudal angle of the shoulder joint 120-130 deg while standing, 145 extended, 80 flexed (Adams and "
+        "Stashak's Lameness in Horses, 7th ed. 2020, ch. 1, p. 29; Wikipedia, 'Equine forelimb anatomy', "
+        "repeats it); a textbook figure: no measured standing shoulder angle found",
     ),
     Band(
         "horse",
