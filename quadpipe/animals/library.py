@@ -13,7 +13,7 @@ carries the thesis's pelvis height and a real body mass:
       trot: {froude: [0.35, 3]}
       gallop: {froude: [2, 5], sequence: rotary}
     walk_fold: 1                # share of the runners' swing fold at a walk (the elephant's small), cited
-    upright: 1                  # carried on straight legs by auto_gait and direct (the rat's 0: crouched)
+    upright: 1                  # galloped on straight legs by auto_gait and direct (the rat's 0: crouched)
     tail_lift_deg: 20           # each tail joint carried this far above its rest angle in motion, cited
 
 The repertoire, the swing fold, the upright carriage and the tail's lift reach the controllers as parameters they may declare (see
@@ -127,8 +127,9 @@ class AnimalConfig(BaseModel):
         DEFAULT_UPRIGHT,
         ge=0.0,
         le=1.0,
-        description="How far `auto_gait` and `direct` carry the species on straight, weight-bearing legs at a walk "
-        "and a trot (1), rather than on the crouched legs of a small mammal (0: Biewener 1989, Science 245:45).",
+        description="How far `auto_gait` and `direct` carry the species on straight, weight-bearing legs at a gallop "
+        "(1), rather than on the crouched legs of a small mammal (0: Biewener 1989, Science 245:45); at a walk and a "
+        "trot every species' legs bear weight, the crouched one's with `trot`'s values for it.",
     )
     tail_lift_deg: float = Field(
         DEFAULT_TAIL_LIFT_DEG,
@@ -155,7 +156,7 @@ class Animal:
         gaits_at: where the repertoire was written (its config's `gaits:`), for messages.
         walk_fold: how far the legs fold in mid-swing at a walk, as a share of the runners' fold.
         walk_fold_at: where the walk's fold was written (its config's `walk_fold:`).
-        upright: how far `auto_gait` and `direct` carry it on straight, weight-bearing legs.
+        upright: how far `auto_gait` and `direct` gallop it on straight, weight-bearing legs.
         upright_at: where that was written (its config's `upright:`).
         tail_lift_deg: how far each tail joint is carried above its rest angle in motion, degrees.
         tail_lift_at: where that was written (its config's `tail_lift_deg:`).
