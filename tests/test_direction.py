@@ -820,21 +820,7 @@ def test_the_issues_shot_sits_lies_stands_turns_and_walks_back(the_shot: Callabl
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "animal",
-    [
-        pytest.param(
-            "dog",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="with the dog's standing hock at 147 deg (135 before session 14) the `postures` controller "
-                "lies lower, its pelvis at 0.635 HP (0.681), and the shot's lie stays at 0.649: its hind legs "
-                "crouch (hips 0.58 HP up, hocks 0.17 HP) instead of folding, whatever `lie_ride` and `lie_drive`",
-            ),
-        ),
-        "horse",
-    ],
-)
+@pytest.mark.parametrize("animal", ["dog", "horse"])
 def test_the_issues_shot_reaches_the_postures_heights(the_shot: Callable[[str], Clip], animal: str) -> None:
     from tests.conftest import cached_simulation
 
