@@ -201,10 +201,10 @@ HORSE = Species(
     # ed., p. 29), forearm and cannons vertical, pastern and hoof wall ~50-55 deg to the ground.
     # The 45-55 deg "shoulder slope" of conformation is the line from the withers to the point
     # of the shoulder, not the scapula's axis (docs/kinematics_references.md): the scapula
-    # leans 37 deg from the vertical (53 to the horizontal), the humerus 18 deg back, for a
+    # leans 38 deg from the vertical (52 to the horizontal), the humerus 17 deg back, for a
     # shoulder of 125 deg (they were 42 and 35, 103 deg). The scapula's top, the elbow and all
     # below it stay where they were (hoof, rest length and withers kept), the scapula and the
-    # humerus re-lengthened to meet (0.342, 0.258 -> 0.269, 0.263: a scapula of 38 cm). Joint
+    # humerus re-lengthened to meet (0.342, 0.258 -> 0.261, 0.272: a scapula of 37 cm). Joint
     # limits are angles from the rest pose, so the horse's scapula and shoulder limits are set
     # for this pose (configs/limits/horse.tsv). The fetlock stands well off the ground
     # (unguligrade); long neck, long head carried steeply.
@@ -221,7 +221,7 @@ HORSE = Species(
     hind=segs((0.315, 35.0), (0.284, -28.0), (0.21, 0.0), (0.063, 38.0), (0.042, 42.0), (0.047, 50.0)),
     scapula=(0.12, 0.06, 0.06),
     shoulder_lateral=0.12,
-    front=segs((0.269, 37.0), (0.263, -18.0), (0.294, 0.0), (0.198, 0.0), (0.078, 38.0), (0.084, 45.0)),
+    front=segs((0.261, 38.0), (0.272, -17.0), (0.294, 0.0), (0.198, 0.0), (0.078, 38.0), (0.084, 45.0)),
 )
 
 BEAR = Species(
