@@ -197,9 +197,17 @@ HORSE = Species(
     # "The Anatomy of the Domestic Animals"; Wikipedia, "Limbs of the horse"): scapula ~40 cm,
     # humerus ~30, radius ~34, third metacarpal (cannon) ~23, long pastern P1 ~9, short
     # pastern + coffin ~9; femur ~42, tibia ~37, third metatarsal ~28 (hind cannon longer).
-    # Standing angles: scapula ~45-50 deg to the horizontal, shoulder joint ~120-130 deg,
-    # forearm and cannons vertical, pastern and hoof wall ~50-55 deg to the ground. The fetlock
-    # stands well off the ground (unguligrade); long neck, long head carried steeply.
+    # Standing angles: shoulder joint 120-130 deg (Adams and Stashak's Lameness in Horses, 7th
+    # ed., p. 29), forearm and cannons vertical, pastern and hoof wall ~50-55 deg to the ground.
+    # The 45-55 deg "shoulder slope" of conformation is the line from the withers to the point
+    # of the shoulder, not the scapula's axis (docs/kinematics_references.md): the scapula
+    # leans 38 deg from the vertical (52 to the horizontal), the humerus 17 deg back, for a
+    # shoulder of 125 deg (they were 42 and 35, 103 deg). The scapula's top, the elbow and all
+    # below it stay where they were (hoof, rest length and withers kept), the scapula and the
+    # humerus re-lengthened to meet (0.342, 0.258 -> 0.261, 0.272: a scapula of 37 cm). Joint
+    # limits are angles from the rest pose, so the horse's scapula and shoulder limits are set
+    # for this pose (configs/limits/horse.tsv). The fetlock stands well off the ground
+    # (unguligrade); long neck, long head carried steeply.
     name="horse",
     hp_cm=140.69,
     pelvis=Seg(0.20, 3.0),
@@ -213,7 +221,7 @@ HORSE = Species(
     hind=segs((0.315, 35.0), (0.284, -28.0), (0.21, 0.0), (0.063, 38.0), (0.042, 42.0), (0.047, 50.0)),
     scapula=(0.12, 0.06, 0.06),
     shoulder_lateral=0.12,
-    front=segs((0.342, 42.0), (0.258, -35.0), (0.294, 0.0), (0.198, 0.0), (0.078, 38.0), (0.084, 45.0)),
+    front=segs((0.261, 38.0), (0.272, -17.0), (0.294, 0.0), (0.198, 0.0), (0.078, 38.0), (0.084, 45.0)),
 )
 
 BEAR = Species(
