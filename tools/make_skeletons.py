@@ -152,7 +152,8 @@ ELEPHANT = Species(
     # ~38 deg; standing still they are straighter still. Long femur and humerus, short forearm
     # and shank, short feet on a fat pad: metapodials steep, phalanges stubby (Hutchinson et
     # al. 2011, "From flat foot to fat foot", Science 334:1699). Long upright scapula, very
-    # short neck, big skull, tail about 1-1.3 m.
+    # short neck, big skull, tail about 1-1.3 m. The fore leg stands as a column: forearm 3 deg
+    # forward, metacarpus 11 deg (25 before session 15; the toe tip 1.1 cm behind where it was).
     name="elephant",
     hp_cm=299.82,
     pelvis=Seg(0.15, 5.0),
