@@ -437,7 +437,7 @@ def test_the_elephant_asked_to_run_fast_ambles_at_its_top_speed_without_flying()
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
-    reason="at the elephant's top amble (Fr 1.196, no flight) its feet are down 0.477-0.493 of the cycle: on the "
+    reason="at the elephant's top amble (Fr 1.195, no flight) its feet are down 0.465-0.502 of the cycle: on the "
     "stiff contact they chatter late in the stance (docs/gait_notebook.md, the amble's thin duty margin)",
 )
 def test_the_elephant_at_its_top_speed_keeps_every_foot_down_half_the_time():

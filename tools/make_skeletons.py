@@ -152,7 +152,8 @@ ELEPHANT = Species(
     # ~38 deg; standing still they are straighter still. Long femur and humerus, short forearm
     # and shank, short feet on a fat pad: metapodials steep, phalanges stubby (Hutchinson et
     # al. 2011, "From flat foot to fat foot", Science 334:1699). Long upright scapula, very
-    # short neck, big skull, tail about 1-1.3 m.
+    # short neck, big skull, tail about 1-1.3 m. The fore leg stands as a column: forearm 3 deg
+    # forward, metacarpus 11 deg (25 before session 15; the toe tip 1.1 cm behind where it was).
     name="elephant",
     hp_cm=299.82,
     pelvis=Seg(0.15, 5.0),
@@ -166,7 +167,7 @@ ELEPHANT = Species(
     hind=segs((0.493, 6.0), (0.309, -10.0), (0.08, 40.0), (0.04, 60.0), (0.029, 70.0), (0.023, 80.0)),
     scapula=(0.14, 0.06, 0.10),
     shoulder_lateral=0.15,
-    front=segs((0.332, 20.0), (0.388, -12.0), (0.31, 0.0), (0.083, 25.0), (0.044, 50.0), (0.033, 70.0)),
+    front=segs((0.332, 20.0), (0.388, -12.0), (0.31, 3.0), (0.083, 11.0), (0.044, 50.0), (0.033, 70.0)),
 )
 
 COW = Species(
