@@ -837,6 +837,26 @@ def test_the_issues_shot_reaches_the_postures_heights(the_shot: Callable[[str], 
             )
 
 
+SIT_TO_LIE_RISE_HP = 0.1
+"""From a sit into a lie the pelvis rises at most this far above its sitting height (it stood
+up in between, to 1.24 HP for the dog, until session 15)."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("animal", ["dog", "horse"])
+def test_the_issues_shot_lies_down_from_sitting_without_standing_up(
+    the_shot: Callable[[str], Clip], animal: str
+) -> None:
+    clip = the_shot(animal)
+    (report,) = direction_reports(clip)
+    sit, lie = (next(b for b in report.beats if b.beat == k) for k in (2, 3))
+    sitting, _ = pose_heights(clip, {"sit": sit.asked_end_s})["sit"]
+    track = clip.animals[0]
+    handoff = slice(round((sit.asked_end_s - 1.0) * clip.fps), round((lie.asked_start_s + 2.0) * clip.fps))
+    highest = float(track.positions[handoff, roles.ROLES.index("pelvis"), 2].max() / track.pelvis_height)
+    assert highest <= sitting + SIT_TO_LIE_RISE_HP, f"pelvis up to {highest:.3f} HP, sitting at {sitting:.3f}"
+
+
 IN_PLACE_DEG = 10.0
 IN_PLACE_HP = 0.3
 """A turn in place (issue #16): by its end the trunk has turned the asked angle within
