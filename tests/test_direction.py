@@ -837,6 +837,56 @@ def test_the_issues_shot_reaches_the_postures_heights(the_shot: Callable[[str], 
             )
 
 
+SIT_TO_LIE_RISE_HP = 0.1
+"""From a sit into a lie the pelvis rises at most this far above its sitting height (it stood
+up in between, to 1.24 HP for the dog, until session 15)."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("animal", ["dog", "horse"])
+def test_the_issues_shot_lies_down_from_sitting_without_standing_up(
+    the_shot: Callable[[str], Clip], animal: str
+) -> None:
+    clip = the_shot(animal)
+    (report,) = direction_reports(clip)
+    sit, lie = (next(b for b in report.beats if b.beat == k) for k in (2, 3))
+    sitting, _ = pose_heights(clip, {"sit": sit.asked_end_s})["sit"]
+    track = clip.animals[0]
+    handoff = slice(round((sit.asked_end_s - 1.0) * clip.fps), round((lie.asked_start_s + 2.0) * clip.fps))
+    highest = float(track.positions[handoff, roles.ROLES.index("pelvis"), 2].max() / track.pelvis_height)
+    assert highest <= sitting + SIT_TO_LIE_RISE_HP, f"pelvis up to {highest:.3f} HP, sitting at {sitting:.3f}"
+
+
+RISE_OVER_STANDING_HP = 0.05
+AIRBORNE_HP = 0.02
+"""Getting up from the lie, the pelvis rises at most `RISE_OVER_STANDING_HP` above its
+standing height (the half second before the turn), and the animal never leaves the ground:
+no frame with all four feet up and its lowest bone more than `AIRBORNE_HP` above where it is
+standing (kneeling, a horse's hooves may be up while its knees are down). Until session 15
+the stance springs came back at the end of the ramp on folded legs and launched the dog to
+1.40 HP (standing 0.99), every bone 0.21 HP off the ground; the horse to 1.07 (1.01)."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("animal", ["dog", "horse"])
+def test_the_issues_shot_gets_up_from_lying_without_a_leap(the_shot: Callable[[str], Clip], animal: str) -> None:
+    clip = the_shot(animal)
+    (report,) = direction_reports(clip)
+    lie, stand = (next(b for b in report.beats if b.beat == k) for k in (3, 4))
+    track = clip.animals[0]
+    heights = track.positions[:, :, 2] / track.pelvis_height
+    standing = slice(round((stand.asked_end_s - 0.5) * clip.fps), round(stand.asked_end_s * clip.fps))
+    rise = slice(round((lie.asked_end_s - 1.5) * clip.fps), round(stand.asked_end_s * clip.fps))
+    pelvis = heights[:, roles.ROLES.index("pelvis")]
+    highest, standing_height = float(pelvis[rise].max()), float(pelvis[standing].mean())
+    assert highest <= standing_height + RISE_OVER_STANDING_HP, (
+        f"pelvis up to {highest:.3f} HP, standing at {standing_height:.3f}"
+    )
+    lowest = heights.min(axis=1)
+    off = (track.foot_contacts[rise].sum(axis=1) == 0) & (lowest[rise] > lowest[standing].min() + AIRBORNE_HP)
+    assert not off.any(), f"{off.sum()} frames off the ground, every bone up to {lowest[rise].max():.3f} HP"
+
+
 IN_PLACE_DEG = 10.0
 IN_PLACE_HP = 0.3
 """A turn in place (issue #16): by its end the trunk has turned the asked angle within

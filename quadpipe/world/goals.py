@@ -141,6 +141,7 @@ def direction_parameters(timeline: Timeline, hp: float, natural_time: float, ahe
     - `path_look` and `path_looking`: the point a beat looks at, and 1 while one does (0
       while looking ahead), ramping like a stand;
     - `path_sit` and `path_lie`: 1 while a hold sits (lies), with ramps down and up;
+      `path_rising`: 1 while the animal gets up from a pose into standing (over its ramp up);
     - `path_turning` and `path_turn_rate`: 1 while a turn turns in place (0 otherwise), and
       its rate (rad/s, counter-clockwise), each ramping over `TURN_RAMP_NATURAL`;
     - `path_auto`: 1 while the gait follows the speed, 0 while a move asks for one;
@@ -367,20 +368,43 @@ def _look_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:
     return {"path_look": steps_text(points), "path_looking": _ramps_text([(0.0, 0.0), *looking], ramp)}
 
 
+POSES = ("sit", "lie")
+"""The hold poses that fold the legs (`stand` is the default one)."""
+
+
 def _pose_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:
     """`path_sit` and `path_lie`: 1 while a hold sits (lies), ramping over `ramp` seconds
-    from the hold's start, and back over the same time before it ends."""
+    from the hold's start, and back over the same time before it ends; into a hold that
+    sits or lies next, over the same time after it ends, as that pose ramps in (a sit
+    followed by a lie goes down from sitting, not through standing). And `path_rising`: 1
+    over the ramp up of a pose into standing, 0 otherwise (getting up is not lying down
+    played backward: see `bearing` in configs/controllers/direct.yaml)."""
     texts = {}
-    for pose in ("sit", "lie"):
+    rising = ["0"]
+    for pose in POSES:
         terms = ["0"]
-        for seg in (seg for seg in segments if seg.kind == "hold" and seg.pose == pose):
-            down, up = seg.start, max(seg.start, seg.end - ramp)
+        for k, seg in enumerate(segments):
+            if seg.kind != "hold" or seg.pose != pose:
+                continue
+            posed_next = k + 1 < len(segments) and _posed_hold(segments[k + 1])
+            down, up = seg.start, seg.end if posed_next else max(seg.start, seg.end - ramp)
             terms += [
                 f"smoothstep({number_text(down, DIRECTION_DIGITS)} s, {number_text(down + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})",
                 f"-smoothstep({number_text(up, DIRECTION_DIGITS)} s, {number_text(up + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})",
             ]
+            if not posed_next:
+                rising += [
+                    f"step({number_text(up, DIRECTION_DIGITS)} s, {TIME_VARIABLE})",
+                    f"-step({number_text(up + ramp, DIRECTION_DIGITS)} s, {TIME_VARIABLE})",
+                ]
         texts[f"path_{pose}"] = balanced_sum(terms)
+    texts["path_rising"] = balanced_sum(rising)
     return texts
+
+
+def _posed_hold(segment: Segment) -> bool:
+    """Whether a segment is a hold that sits or lies."""
+    return segment.kind == "hold" and segment.pose in POSES
 
 
 def _turn_texts(segments: Sequence[Segment], ramp: float) -> dict[str, str]:
