@@ -149,6 +149,8 @@ NEUTRAL_TUNABLES = {
     "load_traction": "0.3",
     "front_fold_lead": "0.4",
     "hind_fold_lead": "0.4",
+    "front_elbow_delay": "0.05",
+    "front_carpus_delay": "0.11",
 }
 """`locomotion` tunables whose default keeps the gaits as they were, each with a value that
 acts: at their default (the base's own) they must cost the gaits that leave them there no
