@@ -147,6 +147,10 @@ NEUTRAL_TUNABLES = {
     "hind_loading_shortening": "0.05",
     "front_loading_shoulder": "1",
     "load_traction": "0.3",
+    "front_fold_lead": "0.4",
+    "hind_fold_lead": "0.4",
+    "front_elbow_delay": "0.05",
+    "front_carpus_delay": "0.11",
 }
 """`locomotion` tunables whose default keeps the gaits as they were, each with a value that
 acts: at their default (the base's own) they must cost the gaits that leave them there no

@@ -243,6 +243,23 @@ def test_a_joint_bent_in_stance_measures_the_bend_as_flexion(leg, joint, bone, t
     assert (moved > 0) == (toe_goes == "forward"), "flexion moves the paw as anatomy says"
 
 
+@pytest.mark.parametrize(("leg", "joint", "bone", "turn", "toe_goes"), BENDS)
+def test_a_joint_still_folded_as_its_foot_lands_measures_the_fold_at_the_landing(leg, joint, bone, turn, toe_goes):
+    dog = StickDog()
+    dog.contacts = contacts()
+    stance = dog.contacts[:, LEGS.index(leg)]
+    landings = np.zeros(FRAMES, dtype=bool)
+    landings[[start for start, _ in runs(stance, True) if start > 0]] = True
+    dog.turn(bone, about_y(turn * 25.0), landings)
+    posture = measure(dog)
+    folded = posture.legs[leg].joints[joint]
+    assert folded.landing_max_deg == pytest.approx(25.0)
+    assert folded.stance_max_deg == pytest.approx(0.0, abs=1e-9), "a stance's first tenth is not its core"
+    others = [j for name, j in posture.legs[leg].joints.items() if name != joint]
+    assert all(abs(j.landing_max_deg) < 1e-9 for j in others), "only the folded joint lands folded"
+    assert posture.to_dict()["legs"][leg]["joints"][joint]["landing_max_deg"] == pytest.approx(25.0)
+
+
 @pytest.mark.parametrize(("leg", "joint"), all_joints())
 def test_flexion_and_extension_have_opposite_signs(leg, joint):
     spec = next(s for s in JOINTS[leg.endswith("f")] if s[0] == joint)

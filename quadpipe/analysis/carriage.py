@@ -193,10 +193,11 @@ def stance_core(contact: np.ndarray) -> np.ndarray:
 
 def _leg_posture(clip: Clip, track: AnimalTrack, leg: str, contact: np.ndarray, window: slice) -> LegPosture:
     core = stance_core(contact)
+    touchdowns = [start for start, _ in runs(contact, True) if start > 0]
     joints = {}
     for name, *_ in JOINTS[leg.endswith("f")]:
         values = flexion(track, leg, name, window)
-        joints[name] = _joint_flexion(name, values[core], values[~contact])
+        joints[name] = _joint_flexion(name, values[core], values[~contact], values[touchdowns])
     complete = [(a, b) for a, b in runs(contact, True) if a > 0 and b < len(contact)]
     hp = track.pelvis_height
     foot = [track.roles.index(bone) for bone in roles.FOOT_BONES[leg]]
@@ -227,16 +228,12 @@ def _leg_posture(clip: Clip, track: AnimalTrack, leg: str, contact: np.ndarray, 
     )
 
 
-def _joint_flexion(name: str, stance: np.ndarray, swing: np.ndarray) -> JointFlexion:
+def _joint_flexion(name: str, stance: np.ndarray, swing: np.ndarray, landings: np.ndarray) -> JointFlexion:
+    swing_max = float(swing.max()) if len(swing) else None
+    landing_max = float(landings.max()) if len(landings) else None
     if not len(stance):
-        return JointFlexion(name, None, None, None, float(swing.max()) if len(swing) else None)
-    return JointFlexion(
-        name,
-        float(stance.max()),
-        float(stance.mean()),
-        float(stance.min()),
-        float(swing.max()) if len(swing) else None,
-    )
+        return JointFlexion(name, None, None, None, swing_max, landing_max)
+    return JointFlexion(name, float(stance.max()), float(stance.mean()), float(stance.min()), swing_max, landing_max)
 
 
 def _slip(slides_xy: np.ndarray, start: int, stop: int) -> float:

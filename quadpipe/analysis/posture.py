@@ -32,6 +32,9 @@ class JointFlexion:
         stance_mean_deg: mean flexion over the stance frames.
         stance_min_deg: smallest flexion over the stance frames (negative: extension).
         swing_max_deg: largest flexion over the swing frames (None: no swing frame).
+        landing_max_deg: largest flexion at a touchdown, the first frame of a stance seen to
+            start (None: no touchdown measured); the stance figures leave out each stance's
+            first tenth, so a leg that lands still folded from its swing shows here.
     """
 
     joint: str
@@ -39,6 +42,7 @@ class JointFlexion:
     stance_mean_deg: float | None
     stance_min_deg: float | None
     swing_max_deg: float | None
+    landing_max_deg: float | None = None
 
     def to_dict(self) -> dict[str, float | None]:
         """JSON-ready figures."""
@@ -47,6 +51,7 @@ class JointFlexion:
             "stance_mean_deg": self.stance_mean_deg,
             "stance_min_deg": self.stance_min_deg,
             "swing_max_deg": self.swing_max_deg,
+            "landing_max_deg": self.landing_max_deg,
         }
 
 
