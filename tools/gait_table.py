@@ -13,7 +13,8 @@ settling into its gait) are not measured. `quadpipe.analysis.carriage.posture_re
 the rest; docs/analysis.md defines each figure.
 
 Columns (worst leg where per leg; flexion is beyond the standing angle, positive = closing):
-elbow, carpus, knee, hock: largest stance flexion, degrees; pelvis: mean pelvis height over
+elbow, carpus, knee, hock: largest stance flexion, degrees; land: largest elbow and carpus
+flexion at a touchdown frame (a fore leg landing still folded from its swing), degrees; pelvis: mean pelvis height over
 standing; roll: pelvis roll amplitude, degrees; head: mean head height change, HP; tail: % of
 frames some tail shape touches the ground; slip, drag: largest foot slip and toe drag of a
 stance, % HP; pen dyn/rest: deepest and median stance penetration of a foot, % HP; clear: lowest
@@ -48,7 +49,7 @@ FAR_GOAL = "[1000 HP, 0, 0]"
 """A goal far ahead, so that the rudder keeps the animal going straight."""
 
 HEADER = (
-    "| animal | gait | measured gait | elbow° | carpus° | knee° | hock° | pelvis | roll° | head HP "
+    "| animal | gait | measured gait | elbow° | carpus° | knee° | hock° | land elbow/carpus° | pelvis | roll° | head HP "
     "| tail % | slip %HP | drag %HP | pen dyn/rest %HP | clear %HP | touchdown |"
 )
 
@@ -104,10 +105,10 @@ def row(data: dict[str, Any]) -> str:
     posture = data["posture"]
     legs = posture["legs"].values()
 
-    def joint(name: str) -> str:
-        values = [leg["joints"][name]["stance_max_deg"] for leg in legs if name in leg["joints"]]
+    def joint(name: str, figure: str = "stance_max_deg") -> str:
+        values = [leg["joints"][name][figure] for leg in legs if name in leg["joints"]]
         values = [v for v in values if v is not None]
-        return f"{max(values):.0f}" if values else "-"
+        return f"{round(max(values)):d}" if values else "-"
 
     def percent(value: float | None) -> str:
         return "-" if value is None else f"{100 * value:.1f}"
@@ -118,6 +119,7 @@ def row(data: dict[str, Any]) -> str:
         data["gait"],
         data["measured_gait"],
         *(joint(name) for name in ("elbow", "carpus", "knee", "hock")),
+        f"{joint('elbow', 'landing_max_deg')}/{joint('carpus', 'landing_max_deg')}",
         f"{trunk['pelvis_height_ratio']:.2f}",
         f"{trunk['roll_amplitude_deg']:.1f}",
         f"{head['head_dz_hp']:+.2f}",
