@@ -629,6 +629,59 @@ def test_directed_walks_and_trots_bear_weight(
     assert trunk.roll_amplitude_deg <= MAX_ROLL_AMPLITUDE_DEG[gait], figures
 
 
+DIRECTED_LANDING_SHORTFALLS: dict[str, str] = {
+    animal: f"a fore leg lands folded from its swing: elbow {elbow}, carpus {carpus} deg past standing"
+    for animal, elbow, carpus in (
+        ("bear", 28.1, 20.7),
+        ("cat", 28.8, 24.9),
+        ("cow", 32.6, 28.2),
+        ("dog", 30.3, 24.7),
+        ("goat", 28.1, 23.9),
+        ("horse", 31.3, 28.5),
+        ("lion", 26.9, 17.0),
+        ("pig", 27.2, 21.2),
+        ("rat", 23.5, 30.4),
+    )
+}
+"""Animals whose directed trot does not yet land its fore legs extended, with their figures
+(strict expected failures; worst leg at a touchdown frame of the stop-and-go shot's steady trot,
+recorded at `natural_fps`). `auto_gait`, which `direct` extends, does not yet mirror `trot`'s
+landing values (`front_fold_lead`, the fold delays, `swing_retraction`): mirrored (branch
+`autoland15`, session 15) they landed every upright animal but the lion (15.6 deg) within the
+bands, but the directed pig's, cow's and horse's swinging fore feet skimmed the ground (clearance
+0.03, 0.43, 0.78 % HP; 3.1, 4.2, 5.2 before) and the cat's, dog's and lion's toes dragged 4.8-5.7
+% HP. The elephant ambles at the trot's speed and lands on columns."""
+
+
+@pytest.mark.slow
+def test_the_directed_trot_lands_its_fore_legs_extended(
+    stop_and_go_clip: Clip, stop_and_go: DirectionReport, request: pytest.FixtureRequest
+) -> None:
+    """As `trot`'s (tests/test_gaits.py, `test_legs_land_extended_not_folded_from_their_swing`):
+    at each touchdown frame of `direct`'s steady trot the fore leg's elbow and carpus are within
+    their stance band of standing (`MAX_STANCE_CLOSING_DEG`)."""
+    from quadpipe.analysis.carriage import posture_report
+    from quadpipe.animals.sizing import natural_time
+    from tests.test_gaits import MAX_STANCE_CLOSING_DEG
+
+    if stop_and_go.animal in DIRECTED_LANDING_SHORTFALLS:
+        reason = DIRECTED_LANDING_SHORTFALLS[stop_and_go.animal]
+        request.applymarker(pytest.mark.xfail(strict=True, reason=reason))
+    move = stop_and_go.beats[STEADY_MOVES["trot"]]
+    settle = STEADY_SETTLE_NATURAL * natural_time(stop_and_go_clip.animals[0].pelvis_height)
+    steady = between(stop_and_go_clip, move.asked_start_s + settle, move.asked_end_s - settle)
+    posture = posture_report(steady, settle_natural_times=0).animals[0]
+    landing = {
+        joint: max(
+            posture.legs[leg].joints[joint].landing_max_deg or 0.0
+            for leg in roles.LEGS
+            if joint in posture.legs[leg].joints
+        )
+        for joint in ("elbow", "carpus")
+    }
+    assert all(landing[joint] <= MAX_STANCE_CLOSING_DEG[joint] for joint in landing), landing
+
+
 @pytest.mark.parametrize("animal", configs.available("animals"))
 @pytest.mark.slow
 def test_a_figure_eight_at_a_walk_stays_on_the_path(animal: str) -> None:
