@@ -662,7 +662,7 @@ def test_the_directed_trot_lands_its_fore_legs_extended(
     their stance band of standing (`MAX_STANCE_CLOSING_DEG`)."""
     from quadpipe.analysis.carriage import posture_report
     from quadpipe.animals.sizing import natural_time
-    from tests.test_gaits import MAX_STANCE_CLOSING_DEG
+    from tests.test_gaits import MAX_STANCE_CLOSING_DEG, stance_closing
 
     if stop_and_go.animal in DIRECTED_LANDING_SHORTFALLS:
         reason = DIRECTED_LANDING_SHORTFALLS[stop_and_go.animal]
@@ -670,16 +670,9 @@ def test_the_directed_trot_lands_its_fore_legs_extended(
     move = stop_and_go.beats[STEADY_MOVES["trot"]]
     settle = STEADY_SETTLE_NATURAL * natural_time(stop_and_go_clip.animals[0].pelvis_height)
     steady = between(stop_and_go_clip, move.asked_start_s + settle, move.asked_end_s - settle)
-    posture = posture_report(steady, settle_natural_times=0).animals[0]
-    landing = {
-        joint: max(
-            posture.legs[leg].joints[joint].landing_max_deg or 0.0
-            for leg in roles.LEGS
-            if joint in posture.legs[leg].joints
-        )
-        for joint in ("elbow", "carpus")
-    }
-    assert all(landing[joint] <= MAX_STANCE_CLOSING_DEG[joint] for joint in landing), landing
+    landing = stance_closing(posture_report(steady, settle_natural_times=0).animals[0], "landing_max_deg")
+    fore = {joint: landing[joint] for joint in ("elbow", "carpus")}
+    assert all(fore[joint] <= MAX_STANCE_CLOSING_DEG[joint] for joint in fore), fore
 
 
 @pytest.mark.parametrize("animal", configs.available("animals"))

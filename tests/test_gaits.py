@@ -782,15 +782,7 @@ def posture_cases(shortfalls: dict[tuple[str, str], str]) -> list:
 @pytest.mark.slow
 @pytest.mark.parametrize(("animal", "gait"), posture_cases(STANCE_SHAPE_SHORTFALLS))
 def test_stance_legs_keep_their_standing_shape(animal, gait):
-    posture = measured_gait(animal, gait).posture
-    closing = {
-        joint: max(
-            posture.legs[leg].joints[joint].stance_max_deg or 0.0
-            for leg in roles.LEGS
-            if joint in posture.legs[leg].joints
-        )
-        for joint in MAX_STANCE_CLOSING_DEG
-    }
+    closing = stance_closing(measured_gait(animal, gait).posture)
     assert all(closing[joint] <= limit for joint, limit in MAX_STANCE_CLOSING_DEG.items()), closing
 
 
@@ -818,15 +810,7 @@ def test_legs_land_extended_not_folded_from_their_swing(animal, gait):
     """A real dog or horse extends its elbow and carpus in late swing and lands on a straight
     fore leg (the carpus at or past straight): at each touchdown frame every joint is within
     its stance band of standing (`MAX_STANCE_CLOSING_DEG`)."""
-    posture = measured_gait(animal, gait).posture
-    landing = {
-        joint: max(
-            posture.legs[leg].joints[joint].landing_max_deg or 0.0
-            for leg in roles.LEGS
-            if joint in posture.legs[leg].joints
-        )
-        for joint in MAX_STANCE_CLOSING_DEG
-    }
+    landing = stance_closing(measured_gait(animal, gait).posture, "landing_max_deg")
     assert all(landing[joint] <= limit for joint, limit in MAX_STANCE_CLOSING_DEG.items()), landing
 
 
@@ -1113,9 +1097,10 @@ def fast_cases(shortfalls: dict[tuple[str, str], str]) -> list:
     ]
 
 
-def stance_closing(posture: AnimalPosture) -> dict[str, float]:
-    """Per joint of `MAX_STANCE_CLOSING_DEG`, the largest stance flexion beyond standing, worst leg."""
-    return {joint: posture.worst_stance_flexion_deg(joint) or 0.0 for joint in MAX_STANCE_CLOSING_DEG}
+def stance_closing(posture: AnimalPosture, figure: str = "stance_max_deg") -> dict[str, float]:
+    """Per joint of `MAX_STANCE_CLOSING_DEG`, the largest stance flexion beyond standing, worst
+    leg (`figure` "landing_max_deg": at a touchdown frame)."""
+    return {joint: posture.worst_flexion_deg(joint, figure) or 0.0 for joint in MAX_STANCE_CLOSING_DEG}
 
 
 @pytest.mark.slow

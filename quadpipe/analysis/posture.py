@@ -187,14 +187,16 @@ class AnimalPosture:
     head_tail: HeadTailPosture
     notes: tuple[str, ...] = ()
 
-    def worst_stance_flexion_deg(self, joint: str) -> float | None:
-        """The largest stance flexion of a joint over the legs that have it (None: never in stance)."""
+    def worst_flexion_deg(self, joint: str, figure: str = "stance_max_deg") -> float | None:
+        """The largest value of a `JointFlexion` figure of a joint (by default its stance
+        flexion; `landing_max_deg`: at a touchdown) over the legs that have it (None: never
+        measured)."""
         values = [
-            leg.joints[joint].stance_max_deg
+            getattr(leg.joints[joint], figure)
             for leg in self.legs.values()
-            if joint in leg.joints and leg.joints[joint].stance_max_deg is not None
+            if joint in leg.joints and getattr(leg.joints[joint], figure) is not None
         ]
-        return max(values, default=None)  # type: ignore[type-var]
+        return max(values, default=None)
 
     def worst(self, figure: str) -> float | None:
         """The largest value of a `LegPosture` figure over the legs (None: no leg measured it)."""
