@@ -17,7 +17,8 @@ import pytest
 import yaml
 
 from quadpipe.analysis import analyze_clip
-from quadpipe.analysis.direction import REACHED_HP, DirectionReport, direction_reports, format_direction
+from quadpipe.analysis.direction import REACHED_HP, BeatFigures, DirectionReport, direction_reports, format_direction
+from quadpipe.analysis.posture import AnimalPosture
 from quadpipe.anatomy import roles
 from quadpipe.animals.sizing import FRAME_RATE
 from quadpipe.clip.model import Clip
@@ -597,6 +598,19 @@ STEADY_SETTLE_NATURAL = 3.0
 """Natural times left out at a move's start (a start from standing, a walk turning into a
 trot) and before its arrival (the stand's fade starts 0.75 natural time before the mark)."""
 
+
+def steady_posture(clip: Clip, report: DirectionReport, gait: str) -> AnimalPosture:
+    """The posture of the stop-and-go shot's move measured as a steady `gait` (`STEADY_MOVES`),
+    `STEADY_SETTLE_NATURAL` natural times in from either end."""
+    from quadpipe.analysis.carriage import posture_report
+    from quadpipe.animals.sizing import natural_time
+
+    move = report.beats[STEADY_MOVES[gait]]
+    settle = STEADY_SETTLE_NATURAL * natural_time(clip.animals[0].pelvis_height)
+    steady = between(clip, move.asked_start_s + settle, move.asked_end_s - settle)
+    return posture_report(steady, settle_natural_times=0).animals[0]
+
+
 DIRECTED_POSTURE_SHORTFALLS: dict[tuple[str, str], str] = {}
 """Directed gaits that do not yet bear weight, with their figures (strict expected failures):
 none now (the rat's, carried crouched until session 15: walk elbow 43, carpus 52, knee 22,
@@ -610,17 +624,12 @@ def test_directed_walks_and_trots_bear_weight(
     stop_and_go_clip: Clip, stop_and_go: DirectionReport, gait: str, request
 ) -> None:
     """Issue #13's weight-bearing figures (tests/test_gaits.py's bands) on `direct`'s walk and trot."""
-    from quadpipe.analysis.carriage import posture_report
-    from quadpipe.animals.sizing import natural_time
     from tests.test_gaits import MAX_ROLL_AMPLITUDE_DEG, MAX_STANCE_CLOSING_DEG, MIN_PELVIS_HEIGHT_RATIO, stance_closing
 
     if (stop_and_go.animal, gait) in DIRECTED_POSTURE_SHORTFALLS:
         reason = DIRECTED_POSTURE_SHORTFALLS[stop_and_go.animal, gait]
         request.applymarker(pytest.mark.xfail(strict=True, reason=reason))
-    move = stop_and_go.beats[STEADY_MOVES[gait]]
-    settle = STEADY_SETTLE_NATURAL * natural_time(stop_and_go_clip.animals[0].pelvis_height)
-    steady = between(stop_and_go_clip, move.asked_start_s + settle, move.asked_end_s - settle)
-    posture = posture_report(steady, settle_natural_times=0).animals[0]
+    posture = steady_posture(stop_and_go_clip, stop_and_go, gait)
     closing = stance_closing(posture)
     trunk = posture.trunk
     figures = f"{closing}, pelvis {trunk.pelvis_height_ratio:.3f} of standing, roll {trunk.roll_amplitude_deg:.1f} deg"
@@ -660,17 +669,12 @@ def test_the_directed_trot_lands_its_fore_legs_extended(
     """As `trot`'s (tests/test_gaits.py, `test_legs_land_extended_not_folded_from_their_swing`):
     at each touchdown frame of `direct`'s steady trot the fore leg's elbow and carpus are within
     their stance band of standing (`MAX_STANCE_CLOSING_DEG`)."""
-    from quadpipe.analysis.carriage import posture_report
-    from quadpipe.animals.sizing import natural_time
     from tests.test_gaits import MAX_STANCE_CLOSING_DEG, stance_closing
 
     if stop_and_go.animal in DIRECTED_LANDING_SHORTFALLS:
         reason = DIRECTED_LANDING_SHORTFALLS[stop_and_go.animal]
         request.applymarker(pytest.mark.xfail(strict=True, reason=reason))
-    move = stop_and_go.beats[STEADY_MOVES["trot"]]
-    settle = STEADY_SETTLE_NATURAL * natural_time(stop_and_go_clip.animals[0].pelvis_height)
-    steady = between(stop_and_go_clip, move.asked_start_s + settle, move.asked_end_s - settle)
-    landing = stance_closing(posture_report(steady, settle_natural_times=0).animals[0], "landing_max_deg")
+    landing = stance_closing(steady_posture(stop_and_go_clip, stop_and_go, "trot"), "landing_max_deg")
     fore = {joint: landing[joint] for joint in ("elbow", "carpus")}
     assert all(fore[joint] <= MAX_STANCE_CLOSING_DEG[joint] for joint in fore), fore
 
@@ -824,6 +828,11 @@ SIT_CHEST_UP_HP = 0.2
 """Sitting, the thorax is at least this much higher than the pelvis."""
 
 
+def numbered(report: DirectionReport, *beats: int) -> list[BeatFigures]:
+    """The figures of the direction's beats numbered `beats` (their index in the file)."""
+    return [next(b for b in report.beats if b.beat == k) for k in beats]
+
+
 def pose_heights(clip: Clip, ends: dict[str, float]) -> dict[str, tuple[float, float]]:
     """Pose -> (pelvis, thorax) height in HP, averaged over the half second ending a second before `ends[pose]`."""
     from quadpipe.anatomy import roles
@@ -859,7 +868,7 @@ def test_the_issues_shot_sits_lies_stands_turns_and_walks_back(the_shot: Callabl
     moves = [b for b in report.beats if b.kind == "move"]
     assert all(b.arrival_error_s is not None for b in moves), format_direction(report)
     assert all(abs(b.arrival_error_s) <= ARRIVAL_TOLERANCE * report.shot_s for b in moves), format_direction(report)
-    sit = next(b for b in report.beats if b.beat == 2)
+    (sit,) = numbered(report, 2)
     pelvis, thorax = pose_heights(clip, {"sit": sit.asked_end_s})["sit"]
     assert thorax - pelvis >= SIT_CHEST_UP_HP, "sitting, the chest stays up"
     assert report.beats[-1].feet_down == 1.0 and report.beats[-1].still_speed_hp < STILL_HP, format_direction(report)
@@ -872,7 +881,7 @@ def test_the_issues_shot_reaches_the_postures_heights(the_shot: Callable[[str], 
 
     clip = the_shot(animal)
     (report,) = direction_reports(clip)
-    sit, lie = (next(b for b in report.beats if b.beat == k) for k in (2, 3))
+    sit, lie = numbered(report, 2, 3)
     ours = pose_heights(clip, {"sit": sit.asked_end_s, "lie": lie.asked_end_s})
     postures = cached_simulation(animal, "postures", 3 * POSTURES_HOLD_S).clip
     theirs = pose_heights(postures, {"sit": 2 * POSTURES_HOLD_S + 1.0, "lie": 3 * POSTURES_HOLD_S + 1.0})
@@ -895,7 +904,7 @@ def test_the_issues_shot_lies_down_from_sitting_without_standing_up(
 ) -> None:
     clip = the_shot(animal)
     (report,) = direction_reports(clip)
-    sit, lie = (next(b for b in report.beats if b.beat == k) for k in (2, 3))
+    sit, lie = numbered(report, 2, 3)
     sitting, _ = pose_heights(clip, {"sit": sit.asked_end_s})["sit"]
     track = clip.animals[0]
     handoff = slice(round((sit.asked_end_s - 1.0) * clip.fps), round((lie.asked_start_s + 2.0) * clip.fps))
@@ -918,7 +927,7 @@ the stance springs came back at the end of the ramp on folded legs and launched 
 def test_the_issues_shot_gets_up_from_lying_without_a_leap(the_shot: Callable[[str], Clip], animal: str) -> None:
     clip = the_shot(animal)
     (report,) = direction_reports(clip)
-    lie, stand = (next(b for b in report.beats if b.beat == k) for k in (3, 4))
+    lie, stand = numbered(report, 3, 4)
     track = clip.animals[0]
     heights = track.positions[:, :, 2] / track.pelvis_height
     standing = slice(round((stand.asked_end_s - 0.5) * clip.fps), round(stand.asked_end_s * clip.fps))

@@ -35,7 +35,7 @@ from quadpipe.analysis.footfalls import clean_contacts, min_run_frames
 from quadpipe.analysis.posture import AnimalPosture
 from quadpipe.anatomy import roles
 from quadpipe.animals.library import load_animal
-from quadpipe.animals.sizing import GRAVITY, natural_time, timestep
+from quadpipe.animals.sizing import GRAVITY, natural_frame_rate, natural_time
 from quadpipe.clip.model import Clip
 from quadpipe.core import configs
 from quadpipe.sim.recording import Recorder
@@ -56,8 +56,7 @@ def own_time(animal: str) -> float:
 def natural_fps(animal: str) -> float:
     """The recording rate, dividing the animal's physics rate, nearest to as many frames per
     natural time as the dog's `DOG_FPS` (as `NaturalTimeRecorder` records): the rat's 680."""
-    rate = 1.0 / timestep(built_animal(animal).animal.pelvis_height)
-    return rate / max(1, round(rate * own_time(animal) / (DOG_FPS * own_time("dog"))))
+    return natural_frame_rate(built_animal(animal).animal.pelvis_height, DOG_FPS * own_time("dog"))
 
 
 FAR_GOAL = "[1000 HP, 0, 0]"

@@ -59,10 +59,7 @@ def recording_fps(animal: str) -> float:
     from quadpipe.animals import sizing
     from quadpipe.animals.library import load_animal
 
-    pelvis_height = load_animal(animal).pelvis_height
-    step = sizing.timestep(pelvis_height)
-    steps = max(1, round(sizing.natural_time(pelvis_height) / (FRAMES_PER_NATURAL_TIME * step)))
-    return 1.0 / (steps * step)
+    return sizing.natural_frame_rate(load_animal(animal).pelvis_height, FRAMES_PER_NATURAL_TIME)
 
 
 def measure(animal: str, gait: str) -> dict[str, Any]:

@@ -106,3 +106,11 @@ def substeps(pelvis_height: float) -> int:
 def timestep(pelvis_height: float) -> float:
     """The animal's physics time step, in seconds: 1/120 s divided into `substeps`."""
     return FRAME_STEP_S / substeps(pelvis_height)
+
+
+def natural_frame_rate(pelvis_height: float, frames_per_natural_time: float) -> float:
+    """The recording rate (frames per second) that divides the animal's physics rate and is
+    nearest to `frames_per_natural_time` frames per natural time sqrt(HP / g)."""
+    step = timestep(pelvis_height)
+    steps = max(1, round(natural_time(pelvis_height) / (frames_per_natural_time * step)))
+    return 1.0 / (steps * step)
